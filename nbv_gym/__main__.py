@@ -1,0 +1,3 @@
+from nbv_gym.cli import main
+
+main()

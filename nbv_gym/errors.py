@@ -1,0 +1,47 @@
+"""Exceptions raised by nbv-gym.
+
+Every error the library raises on bad input derives from :class:`NbvGymError`, so a caller can catch
+one type. Messages say what was expected, what came, and what to do. Only the CLI turns these into
+exit codes.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+
+class NbvGymError(Exception):
+    """Base class of every error nbv-gym raises on bad input."""
+
+
+class ConfigError(NbvGymError, ValueError):
+    """A config or spec value is missing, unknown or out of range; the message names its dotted path."""
+
+
+class UnknownNameError(NbvGymError, KeyError):
+    """A name (world, policy, metric, …) is not registered."""
+
+    def __init__(self, kind: str, name: str, valid: Iterable[str]):
+        valid = sorted(valid)
+        close = difflib.get_close_matches(name, valid, n=3)
+        hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        self.message = f"Unknown {kind} {name!r}.{hint} Valid {kind}s: {', '.join(valid)}."
+        super().__init__(self.message)
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return self.message
+
+
+class PoseError(NbvGymError, ValueError):
+    """A pose lies outside the world or the map."""
+
+
+class MissingExtraError(NbvGymError, ImportError):
+    """An optional dependency is missing; the message names the extra to install."""
+
+    def __init__(self, package: str, extra: str):
+        super().__init__(
+            f"This feature needs {package!r}, which is not installed. "
+            f'Install it with: pip install "nbv-gym[{extra}]"'
+        )

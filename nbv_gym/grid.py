@@ -1,0 +1,71 @@
+"""Regular axis-aligned 3D grids: the voxel map, the ground truth and the statistics grid G.
+
+All grids in nbv-gym share one convention: cell ``(i, j, k)`` covers
+``[origin + (i, j, k) * res, origin + (i + 1, j + 1, k + 1) * res)`` in the map frame (metres),
+arrays are indexed ``[i, j, k]`` = ``[x, y, z]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nbv_gym.arrays import FloatArray, IntArray
+from nbv_gym.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A regular grid: ``origin`` (3,) float metres of the low corner, cell size ``res`` metres and
+    ``shape`` (3,) cells along x, y, z."""
+
+    origin: tuple[float, float, float]
+    res: float
+    shape: tuple[int, int, int]
+
+    @classmethod
+    def from_bounds(cls, low: tuple[float, float, float], high: tuple[float, float, float],
+                    res: float) -> GridSpec:
+        """The grid of cells of size ``res`` that exactly tiles the box ``[low, high]`` (metres)."""
+        extent = (np.asarray(high, float) - np.asarray(low, float)) / res
+        shape = np.rint(extent).astype(int)
+        if np.any(shape <= 0) or not np.allclose(extent, shape, atol=1e-6):
+            raise ConfigError(f"box {low}–{high} is not a positive whole number of {res} m cells")
+        return cls(tuple(float(v) for v in low), float(res), tuple(int(s) for s in shape))
+
+    @property
+    def low(self) -> FloatArray:
+        """(3,) float: the low corner in metres."""
+        return np.asarray(self.origin, dtype=float)
+
+    @property
+    def high(self) -> FloatArray:
+        """(3,) float: the high corner in metres."""
+        return self.low + self.res * np.asarray(self.shape, dtype=float)
+
+    @property
+    def size(self) -> int:
+        """Number of cells."""
+        return int(np.prod(self.shape))
+
+    def index(self, points: FloatArray) -> IntArray:
+        """(n, 3) int64 cell indices of (n, 3) points in metres (not bounds-checked)."""
+        return np.floor((np.asarray(points, float) - self.low) / self.res).astype(np.int64)
+
+    def contains(self, index: IntArray) -> np.ndarray:
+        """(n,) bool: which (n, 3) cell indices lie inside the grid."""
+        index = np.asarray(index)
+        return np.all((index >= 0) & (index < np.asarray(self.shape)), axis=-1)
+
+    def centres(self, index: IntArray) -> FloatArray:
+        """(n, 3) float centres in metres of (n, 3) cell indices."""
+        return self.low + (np.asarray(index, float) + 0.5) * self.res
+
+    def ravel(self, index: IntArray) -> IntArray:
+        """(n,) int64 flat (C-order) indices of (n, 3) in-grid cell indices."""
+        return np.ravel_multi_index(tuple(np.asarray(index).T), self.shape)
+
+    def unravel(self, flat: IntArray) -> IntArray:
+        """(n, 3) int64 cell indices of (n,) flat indices."""
+        return np.stack(np.unravel_index(np.asarray(flat), self.shape), axis=-1).astype(np.int64)

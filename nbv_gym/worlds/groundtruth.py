@@ -1,0 +1,118 @@
+"""Ground truth: the voxels of a fixed lattice through which a mesh surface passes (SPEC §1).
+
+The lattice is the project's voxel convention anchored at the origin: voxel ``(i, j, k)`` covers
+``[i, i + 1) × [j, j + 1) × [k, k + 1)`` times ``res``. A voxel is occupied iff a triangle of the
+surface intersects its interior (exact triangle–box separating-axis test), so interiors and faces
+lying exactly on voxel boundaries (such as bases standing on z = 0) mark nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from nbv_gym.arrays import BoolArray, FloatArray, IntArray
+from nbv_gym.errors import ConfigError
+from nbv_gym.grid import GridSpec
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """Occupied surface voxels: ``voxels`` (n, 3) int32 lattice indices (sorted, unique) at
+    resolution ``res`` metres."""
+
+    voxels: IntArray
+    res: float
+
+    @property
+    def bounds(self) -> tuple[FloatArray, FloatArray]:
+        """(low (3,), high (3,)) float: the bounding box of the occupied voxels, metres."""
+        return self.voxels.min(axis=0) * self.res, (self.voxels.max(axis=0) + 1) * self.res
+
+    def points(self) -> FloatArray:
+        """(n, 3) float64 voxel centres, metres."""
+        return (self.voxels + 0.5) * self.res
+
+    def occupancy(self, grid: GridSpec) -> BoolArray:
+        """Bool array of ``grid.shape``: which cells of ``grid`` are occupied. ``grid`` must have
+        this ground truth's resolution and lie on its lattice."""
+        offset = np.asarray(grid.origin) / self.res
+        if not np.isclose(grid.res, self.res) or not np.allclose(offset, np.rint(offset)):
+            raise ConfigError(
+                f"Grid (origin {grid.origin}, res {grid.res} m) does not lie on the ground "
+                f"truth's {self.res} m lattice: use that res and an origin on its multiples."
+            )
+        index = self.voxels - np.rint(offset).astype(np.int64)
+        inside = grid.contains(index)
+        grid_mask = np.zeros(grid.shape, dtype=bool)
+        grid_mask[tuple(index[inside].T)] = True
+        return grid_mask
+
+
+def surface_voxels(vertices: FloatArray, faces: IntArray, res: float) -> GroundTruth:
+    """The :class:`GroundTruth` of a triangle mesh: (V, 3) ``vertices`` metres, (F, 3) ``faces``."""
+    triangles = np.ascontiguousarray(np.asarray(vertices, np.float64)[faces] / res)
+    low = np.floor(triangles.reshape(-1, 3).min(axis=0)).astype(np.int64) - 1
+    high = np.floor(triangles.reshape(-1, 3).max(axis=0)).astype(np.int64) + 2
+    mask = np.zeros(tuple(high - low), dtype=np.bool_)
+    _mark_triangles(triangles - low, mask)
+    voxels = np.argwhere(mask) + low
+    return GroundTruth(voxels.astype(np.int32), float(res))
+
+
+@numba.njit(cache=True)
+def _mark_triangles(triangles, mask):
+    """Mark in ``mask`` every unit voxel whose interior meets a triangle (coordinates in voxels)."""
+    for t in range(triangles.shape[0]):
+        tri = triangles[t]
+        lo = np.empty(3, np.int64)
+        hi = np.empty(3, np.int64)
+        for a in range(3):
+            lo[a] = max(int(np.floor(tri[:, a].min())), 0)
+            hi[a] = min(int(np.floor(tri[:, a].max())), mask.shape[a] - 1)
+        for i in range(lo[0], hi[0] + 1):
+            for j in range(lo[1], hi[1] + 1):
+                for k in range(lo[2], hi[2] + 1):
+                    if not mask[i, j, k] and _overlaps(tri, i + 0.5, j + 0.5, k + 0.5):
+                        mask[i, j, k] = True
+
+
+@numba.njit(cache=True)
+def _overlaps(tri, cx, cy, cz):
+    """Whether a triangle (3, 3) meets the open unit box centred at (cx, cy, cz): the
+    separating-axis test of Akenine-Möller on the 13 candidate axes, strict so that touching
+    does not count."""
+    v = np.empty((3, 3))
+    for n in range(3):
+        v[n, 0] = tri[n, 0] - cx
+        v[n, 1] = tri[n, 1] - cy
+        v[n, 2] = tri[n, 2] - cz
+    e = np.empty((3, 3))
+    for n in range(3):
+        for a in range(3):
+            e[n, a] = v[(n + 1) % 3, a] - v[n, a]
+    for a in range(3):  # box face normals
+        if min(v[0, a], v[1, a], v[2, a]) >= 0.5 or max(v[0, a], v[1, a], v[2, a]) <= -0.5:
+            return False
+    for n in range(3):  # edge × box axis
+        for a in range(3):
+            axis = np.zeros(3)
+            axis[(a + 1) % 3] = -e[n, (a + 2) % 3]
+            axis[(a + 2) % 3] = e[n, (a + 1) % 3]
+            if _separates(v, axis):
+                return False
+    normal = np.cross(e[0], e[1])
+    return not _separates(v, normal)
+
+
+@numba.njit(cache=True)
+def _separates(v, axis):
+    radius = 0.5 * (abs(axis[0]) + abs(axis[1]) + abs(axis[2]))
+    if radius == 0.0:
+        return False
+    p0 = v[0, 0] * axis[0] + v[0, 1] * axis[1] + v[0, 2] * axis[2]
+    p1 = v[1, 0] * axis[0] + v[1, 1] * axis[1] + v[1, 2] * axis[2]
+    p2 = v[2, 0] * axis[0] + v[2, 1] * axis[1] + v[2, 2] * axis[2]
+    return min(p0, p1, p2) >= radius or max(p0, p1, p2) <= -radius

@@ -1,0 +1,146 @@
+"""World specs: the small TOML files that define a world, and the registry of benchmark worlds.
+
+A spec fixes everything a world is generated from: the point process (seed, asset count,
+clusters, window), the asset mix and pose ranges, the tree library and the ground plane. The
+benchmark's twelve specs ship in the package (``worlds/`` in the source tree); a user passes the
+path of their own file wherever a world name is accepted.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.resources
+import json
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from nbv_gym.config import check, from_dict, to_dict
+from nbv_gym.errors import ConfigError, UnknownNameError
+from nbv_gym.worlds.trees import TreeConfig
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
+
+
+@dataclass(frozen=True)
+class PlacementConfig:
+    """Asset positions: a Poisson cluster (Neyman–Scott) process in ``window_m``
+    (x_min, y_min, x_max, y_max); ``n_parents = 0`` means ``int(n_assets / 20) + 1``. No asset
+    footprint enters the disc of ``clear_radius_m`` around the start (the origin)."""
+
+    seed: int
+    n_assets: int = 50
+    n_parents: int = 0
+    cluster_radius_m: float = 30.0
+    window_m: tuple[float, float, float, float] = (-30.0, -30.0, 30.0, 30.0)
+    clear_radius_m: float = 2.0
+
+    def __post_init__(self) -> None:
+        check(self.seed >= 0, "seed", "must be ≥ 0")
+        check(self.n_assets >= 1, "n_assets", "must be ≥ 1")
+        check(self.n_parents >= 0, "n_parents", "must be ≥ 0 (0: int(n_assets / 20) + 1)")
+        check(self.parents <= self.n_assets, "n_parents", "must not exceed n_assets")
+        check(self.cluster_radius_m > 0, "cluster_radius_m", "must be > 0")
+        x0, y0, x1, y1 = self.window_m
+        check(x0 < 0 < x1 and y0 < 0 < y1, "window_m", "must contain the start (0, 0)")
+        check(self.clear_radius_m >= 0, "clear_radius_m", "must be ≥ 0")
+
+    @property
+    def parents(self) -> int:
+        """The number of cluster parents."""
+        return self.n_parents or int(self.n_assets / 20) + 1
+
+
+@dataclass(frozen=True)
+class AssetConfig:
+    """Asset mix and poses: ``mix`` maps asset types to relative weights; yaw is uniform in
+    [0, 2π); horizontal and vertical scale factors are uniform in their ranges."""
+
+    mix: dict[str, float]
+    scale_horizontal: tuple[float, float] = (0.7, 1.3)
+    scale_vertical: tuple[float, float] = (0.7, 1.3)
+    tree_library_seed: int = 0
+    tree_library_size: int = 15
+    tree: TreeConfig = field(default_factory=TreeConfig)
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.mix) - set(ASSET_TYPES))
+        check(not unknown, "mix", f"unknown asset type(s) {unknown}; valid: {list(ASSET_TYPES)}")
+        check(
+            bool(self.mix)
+            and all(w >= 0 for w in self.mix.values())
+            and sum(self.mix.values()) > 0,
+            "mix",
+            "needs non-negative weights, not all zero",
+        )
+        for key in ("scale_horizontal", "scale_vertical"):
+            low, high = getattr(self, key)
+            check(0 < low <= high, key, f"expected 0 < low ≤ high, got {(low, high)}")
+        check(self.tree_library_size >= 1, "tree_library_size", "must be ≥ 1")
+
+
+@dataclass(frozen=True)
+class WorldSpec:
+    """Everything a world is generated from; ``ground_size_m`` is the side of the square ground
+    plane centred on the origin."""
+
+    name: str
+    placement: PlacementConfig
+    assets: AssetConfig
+    description: str = ""
+    ground_size_m: float = 64.0
+
+    def __post_init__(self) -> None:
+        half = self.ground_size_m / 2
+        x0, y0, x1, y1 = self.placement.window_m
+        check(min(-x0, -y0, x1, y1) <= half, "ground_size_m", "the ground must cover the window")
+
+    def digest(self) -> str:
+        """A short hash of the spec's content (the name and description excluded)."""
+        content = to_dict(self)
+        content.pop("name"), content.pop("description")
+        return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def parse_spec(text: str, source: str) -> WorldSpec:
+    """The :class:`WorldSpec` of TOML ``text``; errors name ``source`` and the offending key."""
+    try:
+        data: dict[str, Any] = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{source}: not valid TOML: {error}") from None
+    for key in ("name", "placement", "assets"):
+        if key not in data:
+            raise ConfigError(f"{source}: missing required key {key!r}")
+    try:
+        return from_dict(WorldSpec, data)
+    except ConfigError as error:
+        raise ConfigError(f"{source}: {error}") from None
+
+
+def benchmark_names() -> list[str]:
+    """Names of the benchmark worlds shipped with the package, sorted."""
+    return sorted(path.name.removesuffix(".toml") for path in _spec_files())
+
+
+def load_spec(name_or_path: str | Path) -> WorldSpec:
+    """The spec of a benchmark world name (e.g. ``"pp1-trees"``) or of a ``.toml`` file path."""
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.exists():
+        if not path.is_file():
+            raise ConfigError(f"World spec file {str(path)!r} does not exist.")
+        return parse_spec(path.read_text(), str(path))
+    files = {p.name.removesuffix(".toml"): p for p in _spec_files()}
+    if str(name_or_path) not in files:
+        raise UnknownNameError("world", str(name_or_path), files)
+    return parse_spec(files[str(name_or_path)].read_text(), str(name_or_path))
+
+
+def _spec_files() -> list[Any]:
+    folder = importlib.resources.files("nbv_gym.benchmark_worlds")
+    return [p for p in folder.iterdir() if p.name.endswith(".toml")]

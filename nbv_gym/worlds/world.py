@@ -1,0 +1,191 @@
+"""A built world: the mesh the lidar sees, the ground truth, and how to build and cache it."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from nbv_gym.arrays import FloatArray, IntArray
+from nbv_gym.config import to_dict
+from nbv_gym.errors import NbvGymError
+from nbv_gym.worlds import shapes
+from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
+from nbv_gym.worlds.placement import Layout, clear_start, layout
+from nbv_gym.worlds.spec import ASSET_TYPES, WorldSpec, load_spec
+from nbv_gym.worlds.trees import grow_tree, tree_mesh
+
+#: Bump when generation changes, so cached worlds are rebuilt.
+GENERATOR_VERSION = 1
+#: Ground-truth voxel size, metres (SPEC §1).
+GROUND_TRUTH_RES_M = 0.1
+#: Environment variable that moves the world cache.
+CACHE_ENV = "NBV_GYM_CACHE"
+
+
+@dataclass(frozen=True)
+class World:
+    """A built world.
+
+    Attributes:
+        spec: what it was generated from.
+        vertices: (V, 3) float32 vertices of the whole scene (assets and ground plane), metres.
+        faces: (F, 3) int32 triangles.
+        asset_faces: number of leading faces that belong to assets (the rest is ground).
+        layout: the placed assets.
+        ground_truth: the assets' surface voxels.
+    """
+
+    spec: WorldSpec
+    vertices: FloatArray
+    faces: IntArray
+    asset_faces: int
+    layout: Layout
+    ground_truth: GroundTruth
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    @property
+    def ground_bounds_xy(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """((x_min, y_min), (x_max, y_max)) of the ground plane, metres."""
+        half = self.spec.ground_size_m / 2
+        return (-half, -half), (half, half)
+
+    def ray_scene(self):
+        """The Embree scene of this world (built once, then shared)."""
+        return self._ray_scene
+
+    @cached_property
+    def _ray_scene(self):
+        from nbv_gym.lidar import RayScene
+
+        return RayScene(self.vertices, self.faces)
+
+
+def build_world(spec: WorldSpec) -> World:
+    """Generate the world of ``spec`` (meshes, layout, ground truth); no caching."""
+    placed = layout(spec.placement, spec.assets)
+    library = _asset_library(spec, placed)
+    meshes = [library[(k, v)] for k, v in zip(placed.kind, _variants(placed), strict=True)]
+    footprint = np.array([shapes.footprint_radius(m) for m in meshes]) * placed.scale_xy
+    xy = clear_start(placed.xy, footprint, spec.placement.clear_radius_m)
+    placed = Layout(xy, placed.yaw, placed.scale_xy, placed.scale_z, placed.kind, placed.variant)
+    assets = shapes.concatenate(
+        [
+            shapes.place(mesh, xy[n], placed.yaw[n], placed.scale_xy[n], placed.scale_z[n])
+            for n, mesh in enumerate(meshes)
+        ]
+    )
+    ground_truth = surface_voxels(*assets, GROUND_TRUTH_RES_M)
+    vertices, faces = shapes.concatenate([assets, shapes.ground_plane(spec.ground_size_m)])
+    return World(
+        spec,
+        vertices.astype(np.float32),
+        faces.astype(np.int32),
+        len(assets[1]),
+        placed,
+        ground_truth,
+    )
+
+
+def _variants(placed: Layout) -> IntArray:
+    """The library variant of each asset: the tree index for trees, 0 for the other types."""
+    is_tree = placed.kind == ASSET_TYPES.index("trees")
+    return np.where(is_tree, placed.variant, 0)
+
+
+def _asset_library(spec: WorldSpec, placed: Layout) -> dict[tuple[int, int], shapes.Mesh]:
+    """The unscaled mesh of every (type, variant) the layout uses."""
+    builders = {"cuboids": shapes.cuboid, "crosses": shapes.cross, "helicoids": shapes.helicoid}
+    library = {}
+    needed_trees = sorted(set(placed.variant[placed.kind == ASSET_TYPES.index("trees")]))
+    if needed_trees:
+        tree_rngs = np.random.SeedSequence(spec.assets.tree_library_seed).spawn(
+            spec.assets.tree_library_size
+        )
+        tree = spec.assets.tree
+        for variant in needed_trees:
+            skeleton = grow_tree(tree, np.random.default_rng(tree_rngs[variant]))
+            library[(ASSET_TYPES.index("trees"), variant)] = tree_mesh(
+                skeleton, tree.min_sides, tree.max_sides
+            )
+    for kind in sorted(set(placed.kind)):
+        if ASSET_TYPES[kind] in builders:
+            library[(kind, 0)] = builders[ASSET_TYPES[kind]]()
+    return library
+
+
+def cache_dir() -> Path:
+    """Where built worlds are cached: ``$NBV_GYM_CACHE`` or the user cache directory."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV]).expanduser()
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("nbv-gym"))
+
+
+def cache_path(spec: WorldSpec) -> Path:
+    """The cache file of ``spec``, keyed by its content and the generator version."""
+    return cache_dir() / "worlds" / f"{spec.name}-{spec.digest()}-v{GENERATOR_VERSION}.npz"
+
+
+def load_world(name_or_path: str | Path | WorldSpec, cache: bool = True) -> World:
+    """The world of a benchmark name, a spec file path or a :class:`WorldSpec`, loaded from the
+    cache when built before (and built, then cached, otherwise)."""
+    spec = name_or_path if isinstance(name_or_path, WorldSpec) else load_spec(name_or_path)
+    path = cache_path(spec)
+    if cache and path.exists():
+        try:
+            return _read(path, spec)
+        except (OSError, KeyError, ValueError):
+            path.unlink(missing_ok=True)  # a corrupt or partial file: rebuild it
+    world = build_world(spec)
+    if cache:
+        _write(path, world)
+    return world
+
+
+def _write(path: Path, world: World) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    placed = world.layout
+    temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
+    np.savez(
+        temporary,
+        vertices=world.vertices,
+        faces=world.faces,
+        asset_faces=world.asset_faces,
+        ground_truth=world.ground_truth.voxels,
+        res=world.ground_truth.res,
+        xy=placed.xy,
+        yaw=placed.yaw,
+        scale_xy=placed.scale_xy,
+        scale_z=placed.scale_z,
+        kind=placed.kind,
+        variant=placed.variant,
+        spec=json.dumps(to_dict(world.spec)),
+    )
+    os.replace(temporary, path)
+
+
+def _read(path: Path, spec: WorldSpec) -> World:
+    with np.load(path) as data:
+        placed = Layout(
+            data["xy"],
+            data["yaw"],
+            data["scale_xy"],
+            data["scale_z"],
+            data["kind"],
+            data["variant"],
+        )
+        truth = GroundTruth(data["ground_truth"], float(data["res"]))
+        return World(spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth)
+
+
+class WorldError(NbvGymError):
+    """A world could not be built or loaded."""

@@ -1,0 +1,64 @@
+"""Ground truth is exactly the voxels a surface passes through."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from nbv_gym.errors import ConfigError
+from nbv_gym.grid import GridSpec
+from nbv_gym.worlds import shapes, surface_voxels
+
+
+def shell(low, high):
+    """Lattice voxels on the boundary layer of the index box [low, high] (inclusive)."""
+    ranges = [range(a, b + 1) for a, b in zip(low, high, strict=True)]
+    return {v for v in itertools.product(*ranges)
+            if any(v[a] in (low[a], high[a]) for a in range(3))}
+
+
+def test_known_box_is_exactly_its_surface_voxels():
+    # box x ∈ [-0.95, 1.05], y ∈ [-0.95, 1.05], z ∈ [0.05, 2.05]: faces inside voxel layers
+    vertices, faces = shapes.cuboid()
+    truth = surface_voxels(vertices + [0.05, 0.05, 0.05], faces, 0.1)
+    assert set(map(tuple, truth.voxels)) == shell((-10, -10, 0), (10, 10, 20))
+
+
+def test_a_face_on_a_voxel_boundary_marks_neither_side():
+    # the box stands on z = 0 exactly: its base lies on the boundary between layers −1 and 0
+    vertices, faces = shapes.cuboid()
+    truth = surface_voxels(vertices + [0.05, 0.05, 0.0], faces, 0.1)
+    assert truth.voxels[:, 2].min() == 0
+    bottom = truth.voxels[truth.voxels[:, 2] == 0]
+    assert len(bottom) == 4 * 20  # only the walls' ring, no base
+    # and the lid at z = 2.0 (a boundary) is not marked either
+    assert truth.voxels[:, 2].max() == 19
+
+
+def test_a_diagonal_triangle_marks_the_voxels_it_crosses():
+    # the plane x + y = 0.25 between z ∈ [0, 0.1) crosses voxels with i + j ∈ {0, 1, 2}...
+    triangle = np.array([[0.25, 0.0, 0.01], [0.0, 0.25, 0.01], [0.25, 0.0, 0.09]])
+    truth = surface_voxels(triangle, np.array([[0, 1, 2]]), 0.1)
+    # the segment from (0.25, 0) to (0, 0.25) passes through voxels (2,0),(1,0),(1,1),(0,1),(0,2)
+    assert set(map(tuple, truth.voxels[:, :2])) == {(2, 0), (1, 0), (1, 1), (0, 1), (0, 2)}
+
+
+def test_occupancy_grid_of_a_box():
+    vertices, faces = shapes.cuboid()
+    truth = surface_voxels(vertices + [0.05, 0.05, 0.05], faces, 0.1)
+    grid = GridSpec.from_bounds((-1.0, -1.0, 0.0), (0.0, 1.0, 1.0), 0.1)
+    occupied = truth.occupancy(grid)
+    assert occupied.shape == (10, 20, 10)
+    expected = {(i + 10, j + 10, k) for i, j, k in map(tuple, truth.voxels)
+                if -10 <= i < 0 and -10 <= j < 10 and 0 <= k < 10}
+    assert set(map(tuple, np.argwhere(occupied))) == expected
+
+
+def test_occupancy_refuses_a_grid_off_the_lattice():
+    truth = surface_voxels(*shapes.cuboid(), 0.1)
+    with pytest.raises(ConfigError, match="lattice"):
+        truth.occupancy(GridSpec((0.05, 0.0, 0.0), 0.1, (4, 4, 4)))
+    with pytest.raises(ConfigError, match="lattice"):
+        truth.occupancy(GridSpec((0.0, 0.0, 0.0), 0.2, (4, 4, 4)))

@@ -1,0 +1,1 @@
+"""The benchmark world specs (TOML), shipped as package data of nbv-gym."""

@@ -101,7 +101,9 @@ def _convert_tuple(args: tuple[Any, ...], value: Any, path: str) -> tuple[Any, .
         return tuple(_convert(args[0], v, f"{path}[{i}]") for i, v in enumerate(value))
     if len(value) != len(args):
         raise ConfigError(f"{path}: expected {len(args)} values, got {len(value)}: {value!r}")
-    return tuple(_convert(a, v, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, value)))
+    return tuple(
+        _convert(a, v, f"{path}[{i}]") for i, (a, v) in enumerate(zip(args, value, strict=True))
+    )
 
 
 def _convert_mapping(args: tuple[Any, ...], value: Any, path: str) -> dict[Any, Any]:

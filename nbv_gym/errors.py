@@ -16,7 +16,7 @@ class NbvGymError(Exception):
 
 
 class ConfigError(NbvGymError, ValueError):
-    """A config or spec value is missing, unknown or out of range; the message names its dotted path."""
+    """A config or spec value is missing, unknown or out of range; the message names its key."""
 
 
 class UnknownNameError(NbvGymError, KeyError):

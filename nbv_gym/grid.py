@@ -25,8 +25,9 @@ class GridSpec:
     shape: tuple[int, int, int]
 
     @classmethod
-    def from_bounds(cls, low: tuple[float, float, float], high: tuple[float, float, float],
-                    res: float) -> GridSpec:
+    def from_bounds(
+        cls, low: tuple[float, float, float], high: tuple[float, float, float], res: float
+    ) -> GridSpec:
         """The grid of cells of size ``res`` that exactly tiles the box ``[low, high]`` (metres)."""
         extent = (np.asarray(high, float) - np.asarray(low, float)) / res
         shape = np.rint(extent).astype(int)

@@ -1,4 +1,4 @@
-"""Explicit name → object registries that answer unknown names with the valid ones and near misses."""
+"""Explicit name → object registries that answer unknown names with the valid ones."""
 
 from __future__ import annotations
 

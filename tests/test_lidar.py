@@ -12,10 +12,18 @@ from nbv_gym.pose import LocalisationNoise, Pose
 from nbv_gym.worlds import shapes
 
 
-def make_lidar(mesh, noise=None, localisation=LocalisationNoise(), bounds=None) -> Lidar:
+def make_lidar(mesh, noise=None, localisation=None, bounds=None) -> Lidar:
     config = LidarConfig()
-    return Lidar(RayScene(*mesh), config.directions(), config.mount_height_m, config.min_range_m,
-                 config.min_horizontal_m, noise, localisation, bounds)
+    return Lidar(
+        RayScene(*mesh),
+        config.directions(),
+        config.mount_height_m,
+        config.min_range_m,
+        config.min_horizontal_m,
+        noise,
+        localisation or LocalisationNoise(),
+        bounds,
+    )
 
 
 def wall_mesh(x_m: float):
@@ -75,7 +83,9 @@ def test_no_hit_means_no_return():
 def mixture_cdf(error: np.ndarray, true_range: np.ndarray, noise: RangeNoise) -> np.ndarray:
     """The SPEC's mixture CDF of (noisy − true) range, evaluated per ray."""
     gaussian = stats.norm.cdf(error, scale=noise.sigma_m)
-    half_normal = 2 * stats.norm.cdf(np.minimum(error, 0), scale=noise.short_sigma_per_m * true_range)
+    half_normal = 2 * stats.norm.cdf(
+        np.minimum(error, 0), scale=noise.short_sigma_per_m * true_range
+    )
     low, high = noise.outlier_min_m - true_range, noise.outlier_margin_m
     uniform = np.clip((error - low) / (high - low), 0, 1)
     return noise.p_gaussian * gaussian + noise.p_short * half_normal + noise.p_outlier * uniform

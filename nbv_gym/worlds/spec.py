@@ -31,8 +31,9 @@ ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
 @dataclass(frozen=True)
 class PlacementConfig:
     """Asset positions: a Poisson cluster (Neyman–Scott) process in ``window_m``
-    (x_min, y_min, x_max, y_max); ``n_parents = 0`` means ``int(n_assets / 20) + 1``. No asset
-    footprint enters the disc of ``clear_radius_m`` around the start (the origin)."""
+    (x_min, y_min, x_max, y_max); ``n_parents = 0`` means ``max(2, int(n_assets / 20) + 1)``
+    (pointpats' process needs two clusters at least). No asset footprint enters the disc of
+    ``clear_radius_m`` around the start (the origin)."""
 
     seed: int
     n_assets: int = 50
@@ -43,8 +44,12 @@ class PlacementConfig:
 
     def __post_init__(self) -> None:
         check(self.seed >= 0, "seed", "must be ≥ 0")
-        check(self.n_assets >= 1, "n_assets", "must be ≥ 1")
-        check(self.n_parents >= 0, "n_parents", "must be ≥ 0 (0: int(n_assets / 20) + 1)")
+        check(self.n_assets >= 2, "n_assets", "must be ≥ 2")
+        check(
+            self.n_parents == 0 or self.n_parents >= 2,
+            "n_parents",
+            "must be ≥ 2, or 0 for max(2, int(n_assets / 20) + 1)",
+        )
         check(self.parents <= self.n_assets, "n_parents", "must not exceed n_assets")
         check(self.cluster_radius_m > 0, "cluster_radius_m", "must be > 0")
         x0, y0, x1, y1 = self.window_m
@@ -54,7 +59,7 @@ class PlacementConfig:
     @property
     def parents(self) -> int:
         """The number of cluster parents."""
-        return self.n_parents or int(self.n_assets / 20) + 1
+        return self.n_parents or max(2, int(self.n_assets / 20) + 1)
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import zipfile
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -143,7 +144,7 @@ def load_world(name_or_path: str | Path | WorldSpec, cache: bool = True) -> Worl
     if cache and path.exists():
         try:
             return _read(path, spec)
-        except (OSError, KeyError, ValueError):
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
             path.unlink(missing_ok=True)  # a corrupt or partial file: rebuild it
     world = build_world(spec)
     if cache:

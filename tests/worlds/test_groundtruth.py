@@ -15,8 +15,9 @@ from nbv_gym.worlds import shapes, surface_voxels
 def shell(low, high):
     """Lattice voxels on the boundary layer of the index box [low, high] (inclusive)."""
     ranges = [range(a, b + 1) for a, b in zip(low, high, strict=True)]
-    return {v for v in itertools.product(*ranges)
-            if any(v[a] in (low[a], high[a]) for a in range(3))}
+    return {
+        v for v in itertools.product(*ranges) if any(v[a] in (low[a], high[a]) for a in range(3))
+    }
 
 
 def test_known_box_is_exactly_its_surface_voxels():
@@ -51,8 +52,11 @@ def test_occupancy_grid_of_a_box():
     grid = GridSpec.from_bounds((-1.0, -1.0, 0.0), (0.0, 1.0, 1.0), 0.1)
     occupied = truth.occupancy(grid)
     assert occupied.shape == (10, 20, 10)
-    expected = {(i + 10, j + 10, k) for i, j, k in map(tuple, truth.voxels)
-                if -10 <= i < 0 and -10 <= j < 10 and 0 <= k < 10}
+    expected = {
+        (i + 10, j + 10, k)
+        for i, j, k in map(tuple, truth.voxels)
+        if -10 <= i < 0 and -10 <= j < 10 and 0 <= k < 10
+    }
     assert set(map(tuple, np.argwhere(occupied))) == expected
 
 

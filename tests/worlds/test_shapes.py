@@ -30,7 +30,9 @@ def test_helicoid_is_a_thin_closed_ribbon_on_a_shrinking_cone():
     # ribbon volume → length × width × thickness; its centre line winds 3 times up a cone
     t = np.linspace(0, 1, 20001)
     radius = 1.0 - 0.8 * t
-    path = np.column_stack([radius * np.cos(6 * np.pi * t), radius * np.sin(6 * np.pi * t), 2.5 * t])
+    path = np.column_stack(
+        [radius * np.cos(6 * np.pi * t), radius * np.sin(6 * np.pi * t), 2.5 * t]
+    )
     length = np.linalg.norm(np.diff(path, axis=0), axis=1).sum()
     assert solid.volume == pytest.approx(length * 0.3 * 0.02, rel=0.005)
     assert solid.bounds[0, 2] == pytest.approx(0.0)

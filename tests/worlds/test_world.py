@@ -1,0 +1,141 @@
+"""Benchmark worlds: seeded, shared layouts, clear start, cached, with clear errors on bad specs."""
+
+from __future__ import annotations
+
+import hashlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from nbv_gym.errors import ConfigError, UnknownNameError
+from nbv_gym.worlds import (
+    ASSET_TYPES,
+    benchmark_names,
+    build_world,
+    load_spec,
+    load_world,
+    parse_spec,
+)
+from nbv_gym.worlds.world import cache_path
+
+VALID_SPEC = """
+name = "tiny"
+[placement]
+seed = 5
+n_assets = 6
+[assets]
+mix = { cuboids = 1.0 }
+"""
+
+
+def vertex_hash(world) -> str:
+    return hashlib.sha256(world.vertices.tobytes() + world.faces.tobytes()).hexdigest()
+
+
+def test_the_twelve_benchmark_worlds():
+    names = benchmark_names()
+    assert names == sorted(f"pp{p}-{a}" for p in (1, 2, 3) for a in ASSET_TYPES)
+    for name in names:
+        spec = load_spec(name)
+        assert spec.name == name and spec.placement.n_assets == 50
+        assert spec.placement.parents == 3 and spec.placement.cluster_radius_m == 30
+
+
+@pytest.mark.parametrize("name", ["pp1-cuboids", "pp2-crosses", "pp3-helicoids", "pp1-trees"])
+def test_assets_lie_in_the_window_and_clear_the_start(name):
+    world = load_world(name)
+    assert len(world.layout.xy) == 50
+    x0, y0, x1, y1 = world.spec.placement.window_m
+    assert np.all((world.layout.xy >= [x0, y0]) & (world.layout.xy <= [x1, y1]))
+    asset_vertices = world.vertices[np.unique(world.faces[: world.asset_faces])]
+    assert np.hypot(asset_vertices[:, 0], asset_vertices[:, 1]).min() >= 2.0 - 1e-4
+    assert asset_vertices[:, 2].min() >= -1e-6  # assets stand on the ground
+
+
+def test_worlds_of_one_realization_share_the_layout():
+    cuboids, trees = load_world("pp2-cuboids").layout, load_world("pp2-trees").layout
+    for field in ("yaw", "scale_xy", "scale_z"):
+        np.testing.assert_array_equal(getattr(cuboids, field), getattr(trees, field))
+    # positions agree but for assets pushed out of the start disc by their own footprint
+    moved = np.any(cuboids.xy != trees.xy, axis=1)
+    assert moved.sum() <= 2
+    assert np.all(np.hypot(*trees.xy[moved].T) < 10)
+
+
+def test_scales_and_yaws_are_in_their_ranges():
+    placed = load_world("pp3-cuboids").layout
+    assert placed.scale_xy.min() >= 0.7 and placed.scale_xy.max() <= 1.3
+    assert placed.scale_z.min() >= 0.7 and placed.scale_z.max() <= 1.3
+    assert placed.yaw.min() >= 0 and placed.yaw.max() < 2 * np.pi
+    assert placed.yaw.std() > 1.0  # spread over the circle, not constant
+
+
+def test_ground_truth_lies_on_the_assets_not_the_ground():
+    world = load_world("pp1-cuboids")
+    points = world.ground_truth.points()
+    assert points[:, 2].min() > 0  # the ground plane is not ground truth
+    # every voxel is within a voxel diagonal of an asset vertex's box
+    assert points[:, 2].max() <= world.vertices[:-4, 2].max() + 0.1
+
+
+def test_same_seed_same_world_in_another_process(tmp_path):
+    spec_file = tmp_path / "tiny.toml"
+    spec_file.write_text(VALID_SPEC)
+    here = vertex_hash(build_world(parse_spec(VALID_SPEC, "tiny")))
+    code = (
+        "import hashlib, sys; from nbv_gym.worlds import build_world, load_spec; "
+        "w = build_world(load_spec(sys.argv[1])); "
+        "print(hashlib.sha256(w.vertices.tobytes() + w.faces.tobytes()).hexdigest())"
+    )
+    there = subprocess.run(
+        [sys.executable, "-c", code, str(spec_file)], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    assert here == there
+    other = build_world(parse_spec(VALID_SPEC.replace("seed = 5", "seed = 6"), "tiny"))
+    assert vertex_hash(other) != here
+
+
+def test_world_generation_leaves_global_random_state_alone():
+    state = np.random.get_state()[1].copy()  # noqa: NPY002 (the state under test)
+    build_world(parse_spec(VALID_SPEC.replace("cuboids", "trees"), "tiny"))
+    np.testing.assert_array_equal(np.random.get_state()[1], state)  # noqa: NPY002
+
+
+def test_cache_round_trip_and_corrupt_file_recovery(world_cache):
+    spec = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 42"), "tiny")
+    built = load_world(spec)
+    path = cache_path(spec)
+    assert path.exists() and path.is_relative_to(world_cache)
+    loaded = load_world(spec)
+    np.testing.assert_array_equal(loaded.vertices, built.vertices)
+    np.testing.assert_array_equal(loaded.ground_truth.voxels, built.ground_truth.voxels)
+    path.write_bytes(path.read_bytes()[:100])  # truncated
+    np.testing.assert_array_equal(load_world(spec).vertices, built.vertices)
+
+
+def test_unknown_world_suggests_and_lists():
+    with pytest.raises(UnknownNameError, match=r"Did you mean 'pp1-trees'.*pp3-trees"):
+        load_spec("pp1-tres")
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (VALID_SPEC.replace("seed = 5\n", ""), r"placement: .*seed"),
+        (VALID_SPEC.replace("seed = 5", "sede = 5"), r"Unknown key placement\.sede"),
+        (
+            VALID_SPEC.replace("n_assets = 6", "n_assets = 'six'"),
+            r"placement\.n_assets: expected int",
+        ),
+        (VALID_SPEC.replace("cuboids", "pyramids"), r"assets: mix: unknown asset type"),
+        (VALID_SPEC.replace("n_assets = 6", "n_assets = 0"), r"placement: n_assets: must be ≥ 2"),
+        (VALID_SPEC.replace('name = "tiny"', ""), r"missing required key 'name'"),
+        ("name = [", r"not valid TOML"),
+    ],
+    ids=["missing", "typo", "type", "asset", "range", "name", "toml"],
+)
+def test_malformed_spec_names_the_field(text, message):
+    with pytest.raises(ConfigError, match=message):
+        parse_spec(text, "my.toml")

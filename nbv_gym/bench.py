@@ -19,6 +19,8 @@ Progress = Callable[[str], None]
 #: suite name → module holding its ``run(progress)``.
 SUITES: dict[str, str] = {
     "foundation": "nbv_gym.bench",
+    "mapping": "nbv_gym.mapping.bench",
+    "metrics": "nbv_gym.metrics.bench",
 }
 
 BENCH_WORLD = "pp1-trees"

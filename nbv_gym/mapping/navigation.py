@@ -1,0 +1,267 @@
+"""The navigation layer (SPEC §4): a 2D projection of the map, reachability and the goal grid.
+
+- Projection at ``cell_m`` (0.5 m) over the window (G's x, y extent), computed by
+  :meth:`OccupancyMap.project <nbv_gym.mapping.OccupancyMap.project>` with this layer's bands: a
+  cell is *known* if any voxel of its columns whose centre lies in ``known_band_m`` is known,
+  *occupied* if any voxel whose centre lies in ``occupied_band_m`` is occupied, *free* if known and
+  not occupied.
+- Erosion by the robot radius: a cell stays free iff every cell that a disc of ``robot_radius_m``
+  around its centre overlaps is free (0.5 m at 0.5 m cells: the 3 × 3 block). Cells outside the
+  window count as not free.
+- Frontier cells: dilated unknown ∧ eroded free ∧ ¬ dilated occupied, centres at least
+  ``border_margin_m`` inside the window (dilations with the same disc rule, by
+  ``frontier_unknown_dilation_m`` and ``frontier_occupied_margin_m``).
+- Path lengths: 8-connected Dijkstra over eroded free cells (steps ``cell_m`` and ``√2·cell_m``
+  between cell centres) from the robot's cell, which is always a start even if not eroded free.
+- Goals: the x, y cells of G (row-major: index = i·ny + j, i along x). A point belongs to the nav
+  cell that holds it under the half-open grid convention, so a goal's centre (a corner of four nav
+  cells) belongs to the cell up and right of it; path lengths between goal centres are then exact
+  8-connected distances. A goal is valid iff its nav cell is eroded free and reachable, its centre is
+  at least ``border_margin_m`` from the window border, and it is not the robot's own G cell;
+  cost = min(path length / ``search_range_m``, 1) (1 for invalid goals). A *frontier goal* is a valid
+  goal whose nav cell is a frontier cell or touches one (8-neighbourhood): every frontier cell
+  touches the nav cell of some goal, so frontiers and frontier goals vanish together unless the
+  goals next to a frontier are invalid.
+- The unknown space must be dilated by more than the robot radius, otherwise no eroded free cell
+  can lie in it; the default (1 m = robot radius + 0.5 m) gives a one-cell frontier band.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy import ndimage
+
+from nbv_gym.arrays import BoolArray, FloatArray
+from nbv_gym.config import check
+from nbv_gym.errors import ConfigError, NbvGymError
+from nbv_gym.grid import GridSpec
+
+
+@dataclass(frozen=True)
+class NavigationConfig:
+    """The 2D navigation grid and the robot's clearance, metres."""
+
+    cell_m: float = 0.5
+    robot_radius_m: float = 0.5
+    known_band_m: tuple[float, float] = (-0.3, 1.0)
+    occupied_band_m: tuple[float, float] = (0.2, 1.0)
+    search_range_m: float = 20.0
+    border_margin_m: float = 1.0
+    frontier_unknown_dilation_m: float = 1.0
+    frontier_occupied_margin_m: float = 1.0
+
+    def __post_init__(self) -> None:
+        check(self.cell_m > 0, "cell_m", f"must be > 0, got {self.cell_m}")
+        for name in ("robot_radius_m", "border_margin_m", "frontier_unknown_dilation_m"):
+            check(getattr(self, name) >= 0, name, f"must be ≥ 0, got {getattr(self, name)}")
+        check(self.frontier_occupied_margin_m >= 0, "frontier_occupied_margin_m", "must be ≥ 0")
+        check(
+            self.frontier_unknown_dilation_m > self.robot_radius_m,
+            "frontier_unknown_dilation_m",
+            f"must exceed robot_radius_m ({self.robot_radius_m}) or no frontier can exist, "
+            f"got {self.frontier_unknown_dilation_m}",
+        )
+        check(self.search_range_m > 0, "search_range_m", f"must be > 0, got {self.search_range_m}")
+        for name in ("known_band_m", "occupied_band_m"):
+            low, high = getattr(self, name)
+            check(low < high, name, f"need low < high, got {(low, high)}")
+
+
+class NavigationLayer:
+    """Known / free / occupied projection, frontiers, reachability and goal validity and cost.
+
+    Args:
+        goal_grid: the grid G; its x, y cells are the goals and its x, y extent is the window.
+        The keyword arguments are :class:`NavigationConfig`'s fields.
+    """
+
+    def __init__(
+        self,
+        goal_grid: GridSpec,
+        *,
+        cell_m: float,
+        robot_radius_m: float,
+        known_band_m: tuple[float, float],
+        occupied_band_m: tuple[float, float],
+        search_range_m: float,
+        border_margin_m: float,
+        frontier_unknown_dilation_m: float,
+        frontier_occupied_margin_m: float,
+    ):
+        self.goal_grid = goal_grid
+        self.grid = _nav_grid(goal_grid, cell_m, known_band_m[0])
+        self.known_band_m = tuple(known_band_m)
+        self.occupied_band_m = tuple(occupied_band_m)
+        self.search_range_m = float(search_range_m)
+        self._robot_disc = disc(robot_radius_m, cell_m)
+        self._unknown_disc = disc(frontier_unknown_dilation_m, cell_m)
+        self._occupied_disc = disc(frontier_occupied_margin_m, cell_m)
+        self._inner = _inner_cells(self.grid, border_margin_m)
+        self._goal_cells = self.grid.index(_goal_centres(goal_grid))[:, :2]
+        self._goal_inner = _inner_cells(_flat(goal_grid), border_margin_m).ravel()
+        shape = self.grid.shape[:2]
+        self.known = np.zeros(shape, bool)
+        self.occupied = np.zeros(shape, bool)
+        self.eroded_free = np.zeros(shape, bool)
+        self.frontier_mask = np.zeros(shape, bool)
+        self.distance = np.full(shape, np.inf)
+        self.robot_xy = np.zeros(2)
+
+    @classmethod
+    def from_config(cls, config: NavigationConfig, goal_grid: GridSpec) -> NavigationLayer:
+        """The layer ``config`` describes over ``goal_grid``'s goals."""
+        return cls(goal_grid, **vars(config))
+
+    # ------------------------------------------------------------------ update
+
+    def update(self, known: BoolArray, occupied: BoolArray, robot_xy: FloatArray) -> None:
+        """Recompute every layer from the (nx, ny) bool ``known`` and ``occupied`` projections over
+        :attr:`grid` (see :meth:`OccupancyMap.project`) and the robot's (2,) position in metres."""
+        self.project(known, occupied)
+        self.plan(robot_xy)
+
+    def project(self, known: BoolArray, occupied: BoolArray) -> None:
+        """Set the known and occupied cells and recompute eroded free space and frontiers."""
+        shape = self.grid.shape[:2]
+        if np.shape(known) != shape or np.shape(occupied) != shape:
+            raise NbvGymError(
+                f"known and occupied must have the nav grid's shape {shape}, "
+                f"got {np.shape(known)} and {np.shape(occupied)}"
+            )
+        self.known = np.asarray(known, bool)
+        self.occupied = np.asarray(occupied, bool)
+        free = self.known & ~self.occupied
+        self.eroded_free = ndimage.binary_erosion(free, self._robot_disc, border_value=0)
+        unknown_near = ndimage.binary_dilation(~self.known, self._unknown_disc)
+        occupied_near = ndimage.binary_dilation(self.occupied, self._occupied_disc)
+        self.frontier_mask = unknown_near & self.eroded_free & ~occupied_near & self._inner
+
+    def plan(self, robot_xy: FloatArray) -> None:
+        """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free cells."""
+        self.robot_xy = np.asarray(robot_xy, dtype=float).reshape(2)
+        start = self.grid.index([[*self.robot_xy, self.grid.origin[2]]])[0, :2]
+        self.distance = path_lengths(
+            self.eroded_free, (int(start[0]), int(start[1])), self.grid.res
+        )
+
+    # ------------------------------------------------------------------ read-out
+
+    @property
+    def free(self) -> BoolArray:
+        """(nx, ny) bool known and not occupied (before erosion)."""
+        return self.known & ~self.occupied
+
+    @property
+    def discovered_fraction(self) -> float:
+        """Known nav cells / all nav cells of the window."""
+        return float(self.known.mean())
+
+    @property
+    def robot_goal(self) -> int:
+        """Index of the goal cell holding the robot (−1 if outside the window)."""
+        i, j = np.floor((self.robot_xy - self.goal_grid.low[:2]) / self.goal_grid.res).astype(int)
+        nx, ny = self.goal_grid.shape[:2]
+        return int(i * ny + j) if 0 <= i < nx and 0 <= j < ny else -1
+
+    def goal_path_length(self) -> np.ndarray:
+        """(n_goals,) float64 path length (metres) from the robot to each goal, inf if unreachable."""
+        i, j = self._goal_cells.T
+        return np.where(self.eroded_free[i, j], self.distance[i, j], np.inf)
+
+    def goal_mask(self) -> np.ndarray:
+        """(n_goals,) bool: valid goals."""
+        mask = np.isfinite(self.goal_path_length()) & self._goal_inner
+        if self.robot_goal >= 0:
+            mask[self.robot_goal] = False
+        return mask
+
+    def goal_cost(self) -> np.ndarray:
+        """(n_goals,) float64 min(path length / search range, 1); 1 for invalid goals."""
+        cost = np.minimum(self.goal_path_length() / self.search_range_m, 1.0)
+        return np.where(self.goal_mask(), cost, 1.0)
+
+    def frontier_goal_mask(self) -> np.ndarray:
+        """(n_goals,) bool: valid goals whose nav cell is or touches (8-neighbourhood) a frontier
+        cell."""
+        near = ndimage.binary_dilation(self.frontier_mask, np.ones((3, 3), bool))
+        i, j = self._goal_cells.T
+        return near[i, j] & self.goal_mask()
+
+
+def disc(radius_m: float, cell_m: float) -> np.ndarray:
+    """(2k+1, 2k+1) bool: the cells a disc of ``radius_m`` around a cell's centre overlaps."""
+    k = math.ceil(radius_m / cell_m + 0.5)
+    d = np.abs(np.arange(-k, k + 1))
+    gap = np.maximum(d - 0.5, 0.0) * cell_m
+    element = gap[:, None] ** 2 + gap[None, :] ** 2 < radius_m**2
+    element[k, k] = True
+    return element
+
+
+def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) -> np.ndarray:
+    """(nx, ny) float64 8-connected shortest path lengths (metres) from cell ``start`` through the
+    ``passable`` (nx, ny) bool cells; inf where unreachable. ``start`` is a source even if not
+    passable; outside the grid, everything is inf."""
+    nx, ny = passable.shape
+    if not (0 <= start[0] < nx and 0 <= start[1] < ny):
+        return np.full(passable.shape, np.inf)
+    return _dijkstra(passable, start[0], start[1], float(step_m))
+
+
+@njit(cache=True)
+def _dijkstra(passable, si, sj, step):
+    nx, ny = passable.shape
+    dist = np.full((nx, ny), np.inf)
+    dist[si, sj] = 0.0
+    heap = [(0.0, si * ny + sj)]
+    diagonal = step * math.sqrt(2.0)
+    while heap:
+        d, flat = heapq.heappop(heap)
+        i, j = flat // ny, flat % ny
+        if d > dist[i, j]:
+            continue
+        for di in range(-1, 2):
+            for dj in range(-1, 2):
+                a, b = i + di, j + dj
+                if (di == 0 and dj == 0) or not (0 <= a < nx and 0 <= b < ny) or not passable[a, b]:
+                    continue
+                nd = d + (diagonal if di != 0 and dj != 0 else step)
+                if nd < dist[a, b]:
+                    dist[a, b] = nd
+                    heapq.heappush(heap, (nd, a * ny + b))
+    return dist
+
+
+def _nav_grid(goal_grid: GridSpec, cell_m: float, z_m: float) -> GridSpec:
+    """The nav grid over goal_grid's x, y extent (one z layer at ``z_m``; only x, y matter)."""
+    ratio = goal_grid.res / cell_m
+    if abs(ratio - round(ratio)) > 1e-6 or ratio < 1:
+        raise ConfigError(
+            f"navigation cell_m {cell_m} must divide the goal grid's {goal_grid.res} m cells"
+        )
+    nx, ny = (round(s * ratio) for s in goal_grid.shape[:2])
+    return GridSpec((goal_grid.origin[0], goal_grid.origin[1], z_m), cell_m, (nx, ny, 1))
+
+
+def _flat(grid: GridSpec) -> GridSpec:
+    """``grid`` with one z layer."""
+    return GridSpec(grid.origin, grid.res, (grid.shape[0], grid.shape[1], 1))
+
+
+def _goal_centres(goal_grid: GridSpec) -> np.ndarray:
+    """(n_goals, 3) centres of G's x, y cells (row-major), at the bottom layer's height."""
+    index = np.argwhere(np.ones(goal_grid.shape[:2], bool))
+    return goal_grid.centres(np.column_stack([index, np.zeros(len(index), int)]))
+
+
+def _inner_cells(grid: GridSpec, margin_m: float) -> np.ndarray:
+    """(nx, ny) bool: cells whose centre is at least ``margin_m`` inside the x, y extent."""
+    axes = [grid.low[a] + (np.arange(grid.shape[a]) + 0.5) * grid.res for a in range(2)]
+    ok = [(c - grid.low[a] >= margin_m - 1e-9) & (grid.high[a] - c >= margin_m - 1e-9)
+          for a, c in enumerate(axes)]  # fmt: skip
+    return ok[0][:, None] & ok[1][None, :]

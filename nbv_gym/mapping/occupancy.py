@@ -1,0 +1,489 @@
+"""The occupancy map: a dense grid of log-odds voxels with OctoMap's update semantics (SPEC §3).
+
+Per scan, every voxel is updated at most once: the voxels holding a return within the sensor range
+get a hit, then every other voxel crossed by a ray (OctoMap's ``computeRayKeys``: the sensor's voxel
+included, the return's voxel excluded) gets a miss. A return beyond the range carves free space up to
+the range along its ray and marks nothing occupied. Log-odds are clamped to the clamping bounds, as
+in OctoMap with ``insertPointCloud(cloud, origin, max_range)``.
+
+Storage is one float32 per voxel, NaN for unknown (640 × 640 × 90 voxels: 147.5 MB), in z layers
+of 4 × 4 (x, y) tiles for cache locality (:mod:`nbv_gym.mapping.traversal`), plus a per-scan
+marking bitset over the cube of the sensor range (2.0 MB for 20 m at 0.1 m).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from nbv_gym.arrays import BoolArray, FloatArray
+from nbv_gym.config import check
+from nbv_gym.errors import ConfigError, NbvGymError, PoseError
+from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.traversal import TILE, insert_scan
+
+_FORMAT = "nbv_gym.OccupancyMap/1"
+
+
+def logit(p: float) -> float:
+    """Log-odds ``ln(p / (1 − p))`` of a probability in (0, 1)."""
+    return math.log(p / (1.0 - p))
+
+
+@dataclass(frozen=True)
+class MapConfig:
+    """The occupancy map's box, resolution and OctoMap sensor model (octomap_server defaults).
+
+    A voxel is occupied iff its probability is ≥ ``p_occupied``; unknown voxels have probability 0.5.
+    """
+
+    resolution_m: float = 0.1
+    low_m: tuple[float, float, float] = (-32.0, -32.0, -1.0)
+    high_m: tuple[float, float, float] = (32.0, 32.0, 8.0)
+    p_hit: float = 0.7
+    p_miss: float = 0.4
+    p_clamp_min: float = 0.12
+    p_clamp_max: float = 0.97
+    p_occupied: float = 0.5
+
+    def __post_init__(self) -> None:
+        check(self.resolution_m > 0, "resolution_m", f"must be > 0, got {self.resolution_m}")
+        check(0.5 < self.p_hit < 1, "p_hit", f"must be in (0.5, 1), got {self.p_hit}")
+        check(0 < self.p_miss < 0.5, "p_miss", f"must be in (0, 0.5), got {self.p_miss}")
+        check(
+            0 < self.p_clamp_min < self.p_clamp_max < 1,
+            "p_clamp_min",
+            f"need 0 < p_clamp_min < p_clamp_max < 1, got {self.p_clamp_min}, {self.p_clamp_max}",
+        )
+        check(0 < self.p_occupied < 1, "p_occupied", f"must be in (0, 1), got {self.p_occupied}")
+        self.grid()  # raises ConfigError unless the box is a whole number of voxels
+
+    def grid(self) -> GridSpec:
+        """The voxel grid of the map box."""
+        return GridSpec.from_bounds(self.low_m, self.high_m, self.resolution_m)
+
+
+@dataclass(frozen=True)
+class InsertResult:
+    """What one :meth:`OccupancyMap.insert` did.
+
+    Attributes:
+        n_points: returns given.
+        n_dropped: returns dropped for a NaN or infinite coordinate.
+        n_occupied: voxels that received a hit.
+        touched: bool mask over the ``region`` grid passed to ``insert``: cells holding a voxel whose
+            value changed (empty (0, 0, 0) when no region was given).
+    """
+
+    n_points: int
+    n_dropped: int
+    n_occupied: int
+    touched: BoolArray
+
+
+class OccupancyMap:
+    """Log-odds occupancy voxels over a box, updated scan by scan like OctoMap.
+
+    Args:
+        grid: the voxel grid (cell size = map resolution, metres).
+        p_hit, p_miss: probabilities of the hit and miss updates.
+        p_clamp_min, p_clamp_max: clamping bounds of a voxel's probability.
+        p_occupied: a voxel is occupied iff its probability is ≥ this.
+        max_range_m: sensor range; farther returns carve free space up to it and mark nothing.
+    """
+
+    def __init__(
+        self,
+        grid: GridSpec,
+        *,
+        p_hit: float,
+        p_miss: float,
+        p_clamp_min: float,
+        p_clamp_max: float,
+        p_occupied: float,
+        max_range_m: float,
+    ):
+        check(max_range_m > 0, "max_range_m", f"must be > 0, got {max_range_m}")
+        self.grid = grid
+        self.params = {
+            "p_hit": float(p_hit),
+            "p_miss": float(p_miss),
+            "p_clamp_min": float(p_clamp_min),
+            "p_clamp_max": float(p_clamp_max),
+            "p_occupied": float(p_occupied),
+            "max_range_m": float(max_range_m),
+        }
+        self._deltas = np.array([logit(p_hit), logit(p_miss)], np.float32)
+        self._bounds = np.array([logit(p_clamp_min), logit(p_clamp_max)], np.float32)
+        self._lo_occupied = np.float32(logit(p_occupied))
+        nx, ny, nz = grid.shape
+        self._tiles_xy = (-(-nx // TILE), -(-ny // TILE))
+        self._dims = np.array([*self._tiles_xy, nx, ny, nz], np.int64)
+        self._store = np.full(
+            nz * self._tiles_xy[0] * self._tiles_xy[1] * TILE * TILE, np.nan, np.float32
+        )
+        self._window_shape = self._marking_window(grid, max_range_m)
+        self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
+
+    @classmethod
+    def from_config(cls, config: MapConfig, max_range_m: float) -> OccupancyMap:
+        """An empty map as ``config`` describes, for a sensor of range ``max_range_m`` metres."""
+        return cls(
+            config.grid(),
+            p_hit=config.p_hit,
+            p_miss=config.p_miss,
+            p_clamp_min=config.p_clamp_min,
+            p_clamp_max=config.p_clamp_max,
+            p_occupied=config.p_occupied,
+            max_range_m=max_range_m,
+        )
+
+    @staticmethod
+    def _marking_window(grid: GridSpec, max_range_m: float) -> np.ndarray:
+        """(3,) int64 shape of the per-scan marking window, in whole 8-voxel bricks: every voxel
+        within range of the sensor, and at most the map."""
+        half = math.ceil(max_range_m / grid.res) + 1
+        size = np.minimum([2 * half + 1, 2 * half + 1, grid.shape[2]], grid.shape)
+        return (-(-size // 8) * 8).astype(np.int64)
+
+    # ------------------------------------------------------------------ update
+
+    def insert(
+        self, origin: FloatArray, points: FloatArray, region: GridSpec | None = None
+    ) -> InsertResult:
+        """Insert one scan.
+
+        Args:
+            origin: (3,) float sensor position in the map frame, metres; must lie inside the map box.
+            points: (n, 3) float returns in the map frame, metres. Rows with a NaN or infinite
+                coordinate are dropped and counted.
+            region: an optional coarse grid aligned to the map whose cells are whole numbers of
+                voxels (e.g. the statistics grid G); the result's ``touched`` mask is over it.
+
+        Raises:
+            PoseError: the sensor lies outside the map box or is not finite.
+        """
+        origin_grid = self._origin_in_grid(origin)
+        points = _as_points(points)
+        finite = np.isfinite(points).all(axis=1)
+        points_grid = (points[finite] - self.grid.low) / self.grid.res
+        touched, cells = self._touch_grid(region)
+        self._marks[:] = 0
+        n_occupied = insert_scan(
+            self._store,
+            self._dims,
+            origin_grid,
+            points_grid,
+            self.params["max_range_m"] / self.grid.res,
+            self._deltas,
+            self._bounds,
+            self._marks,
+            self._window(origin_grid),
+            touched,
+            cells,
+        )
+        return InsertResult(len(points), int((~finite).sum()), int(n_occupied), touched)
+
+    def _origin_in_grid(self, origin: FloatArray) -> np.ndarray:
+        """(3,) float64 sensor position in grid units; PoseError outside the box."""
+        origin = np.asarray(origin, dtype=np.float64).reshape(3)
+        inside = np.all(origin >= self.grid.low) and np.all(origin < self.grid.high)
+        if not (np.isfinite(origin).all() and inside):
+            raise PoseError(
+                f"sensor position {origin.tolist()} is outside the map box "
+                f"{self.grid.low.tolist()}–{self.grid.high.tolist()} m; keep the robot inside the "
+                "map or enlarge MapConfig.low_m/high_m"
+            )
+        return (origin - self.grid.low) / self.grid.res
+
+    def _window(self, origin_grid: np.ndarray) -> np.ndarray:
+        """(3, 3) int64 low voxel, limit inside the map and shape of the marking window centred on
+        the sensor."""
+        shape = np.asarray(self.grid.shape)
+        low = np.floor(origin_grid).astype(np.int64) - self._window_shape // 2
+        low = np.minimum(np.maximum(low, 0), np.maximum(shape - self._window_shape, 0))
+        return np.stack([low, np.minimum(self._window_shape, shape - low), self._window_shape])
+
+    def _touch_grid(self, region: GridSpec | None) -> tuple[np.ndarray, np.ndarray]:
+        """The empty touched mask over ``region`` and the (3, n) region cell of each voxel index
+        along each axis (−1 outside the region)."""
+        n = max(self.grid.shape)
+        if region is None:
+            return np.zeros((0, 0, 0), bool), np.full((3, n), -1, np.int64)
+        factor = region.res / self.grid.res
+        offset = (region.low - self.grid.low) / self.grid.res
+        if not (_is_whole(factor) and factor >= 1 and np.all(_is_whole(offset))):
+            raise ConfigError(
+                f"region grid (origin {region.origin}, {region.res} m cells) must be aligned to the "
+                f"map's {self.grid.res} m voxels and use a whole multiple of that cell size"
+            )
+        cells = (np.arange(n) - np.rint(offset)[:, None]) // round(factor)
+        cells[(cells < 0) | (cells >= np.asarray(region.shape)[:, None])] = -1
+        return np.zeros(region.shape, bool), cells.astype(np.int64)
+
+    # ------------------------------------------------------------------ queries
+
+    @property
+    def logodds(self) -> np.ndarray:
+        """(nx, ny, nz) float32 log-odds over :attr:`grid`, NaN = unknown: a copy of the whole map
+        (0.15 GB by default; :meth:`logodds_in` copies a part)."""
+        return self._dense((0, 0, 0), self.grid.shape)
+
+    @property
+    def occupied_logodds(self) -> float:
+        """The log-odds at and above which a voxel is occupied."""
+        return float(self._lo_occupied)
+
+    @property
+    def n_known(self) -> int:
+        """Number of known voxels."""
+        return int(np.count_nonzero(~np.isnan(self._store)))
+
+    def memory_bytes(self) -> int:
+        """Bytes held by the map's arrays."""
+        return self._store.nbytes + self._marks.nbytes
+
+    def logodds_in(self, grid: GridSpec) -> np.ndarray:
+        """float32 log-odds of ``grid.shape`` (NaN = unknown, also outside the map box).
+
+        ``grid`` must have the map's resolution and be aligned to its voxels.
+        """
+        offset = self._voxel_offset(grid)
+        out = np.full(grid.shape, np.nan, dtype=np.float32)
+        lo = np.maximum(offset, 0)
+        hi = np.minimum(offset + grid.shape, self.grid.shape)
+        if np.all(hi > lo):
+            out[tuple(slice(a, b) for a, b in zip(lo - offset, hi - offset, strict=True))] = (
+                self._dense(lo, hi)
+            )
+        return out
+
+    def probability(self, grid: GridSpec) -> np.ndarray:
+        """float32 occupancy probability of ``grid.shape``; 0.5 where unknown or outside the map.
+
+        ``grid`` must have the map's resolution and be aligned to its voxels (``ConfigError``
+        otherwise).
+        """
+        return _probability(self.logodds_in(grid))
+
+    def known_mask(self, grid: GridSpec) -> np.ndarray:
+        """bool of ``grid.shape``: voxels observed at least once."""
+        return ~np.isnan(self.logodds_in(grid))
+
+    def occupied_mask(self, grid: GridSpec) -> np.ndarray:
+        """bool of ``grid.shape``: voxels whose probability is ≥ ``p_occupied``."""
+        return _at_least(self.logodds_in(grid), self._lo_occupied)
+
+    def occupied_points(self, threshold: float = 0.5) -> np.ndarray:
+        """(n, 3) float64 centres (metres) of the voxels with probability ≥ ``threshold``."""
+        index, _ = self._voxels_at_least(threshold)
+        return self.grid.centres(index)
+
+    def project(
+        self,
+        grid: GridSpec,
+        known_band_m: tuple[float, float],
+        occupied_band_m: tuple[float, float],
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Project voxel columns onto the x, y cells of ``grid`` (aligned to the map, cells a whole
+        number of voxels, inside the map; its z is ignored).
+
+        Returns:
+            (nx, ny) bool ``known``: some voxel of the cell's columns whose centre lies in
+            ``known_band_m`` is known; (nx, ny) bool ``occupied``: some voxel whose centre lies in
+            ``occupied_band_m`` is occupied.
+        """
+        (x0, y0), factor = self._column_block(grid)
+        nx, ny = grid.shape[:2]
+        layers = self._layers()
+        known = np.zeros(self._tiles_xy + (TILE, TILE), bool)
+        for k in range(*self._band_layers(known_band_m)):
+            known |= ~np.isnan(layers[k])
+        occupied = np.zeros_like(known)
+        for k in range(*self._band_layers(occupied_band_m)):
+            occupied |= _at_least(layers[k], self._lo_occupied)
+        return tuple(
+            _untile(m)[x0 : x0 + nx * factor, y0 : y0 + ny * factor]
+            .reshape(nx, factor, ny, factor)
+            .any(axis=(1, 3))
+            for m in (known, occupied)
+        )
+
+    def _layers(self) -> np.ndarray:
+        """(nz, tiles_x, tiles_y, 4, 4) view of the tiled storage."""
+        return self._store.reshape(self.grid.shape[2], *self._tiles_xy, TILE, TILE)
+
+    def _dense(self, lo, hi) -> np.ndarray:
+        """float32 copy of the voxels ``lo ≤ (i, j, k) < hi`` in (x, y, z) order."""
+        (x0, y0, z0), (x1, y1, z1) = lo, hi
+        tx0, ty0 = x0 // TILE, y0 // TILE
+        tx1, ty1 = -(-x1 // TILE), -(-y1 // TILE)
+        block = self._layers()[z0:z1, tx0:tx1, ty0:ty1]  # (z, X, Y, x, y)
+        dense = block.transpose(1, 3, 2, 4, 0).reshape(
+            (tx1 - tx0) * TILE, (ty1 - ty0) * TILE, z1 - z0
+        )
+        return np.ascontiguousarray(
+            dense[x0 - tx0 * TILE : x1 - tx0 * TILE, y0 - ty0 * TILE : y1 - ty0 * TILE]
+        )
+
+    def _set_dense(self, logodds: np.ndarray) -> None:
+        """Replace the whole map by (nx, ny, nz) float32 log-odds (NaN = unknown)."""
+        nx, ny, nz = self.grid.shape
+        tx, ty = self._tiles_xy
+        padded = np.full((tx * TILE, ty * TILE, nz), np.nan, np.float32)
+        padded[:nx, :ny] = logodds
+        tiled = padded.reshape(tx, TILE, ty, TILE, nz).transpose(4, 0, 2, 1, 3)
+        self._store[:] = tiled.ravel()
+
+    def _voxels_at_least(self, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+        """(n, 3) indices and (n,) float32 log-odds of the known voxels with probability ≥
+        ``threshold`` (≤ 0: all known voxels), in (x, y, z) C order."""
+        layers = self._layers()
+        if threshold <= 0:
+            keep = ~np.isnan(layers)
+        elif threshold >= 1:
+            keep = np.zeros(layers.shape, bool)
+        else:
+            keep = _at_least(layers, np.float32(logit(threshold)))
+        z, tx, ty, x, y = np.nonzero(keep)
+        index = np.column_stack([tx * TILE + x, ty * TILE + y, z])
+        order = np.lexsort(index.T[::-1])
+        return index[order], layers[keep][order]
+
+    def _voxel_offset(self, grid: GridSpec) -> np.ndarray:
+        """(3,) int64 index in the map of ``grid``'s first voxel; ConfigError if not aligned."""
+        offset = (grid.low - self.grid.low) / self.grid.res
+        if not (math.isclose(grid.res, self.grid.res) and np.all(_is_whole(offset))):
+            raise ConfigError(
+                f"query grid (origin {grid.origin}, res {grid.res} m) must have the map's "
+                f"resolution {self.grid.res} m and be aligned to its voxels (map origin "
+                f"{self.grid.origin}); build it with GridSpec.from_bounds on multiples of "
+                f"{self.grid.res} m"
+            )
+        return np.rint(offset).astype(np.int64)
+
+    def _column_block(self, grid: GridSpec) -> tuple[tuple[int, int], int]:
+        """First voxel column (x, y) of ``grid`` and voxels per cell side; ConfigError unless
+        ``grid`` is aligned to the map's voxels and inside the map in x, y."""
+        factor = grid.res / self.grid.res
+        offset = (grid.low[:2] - self.grid.low[:2]) / self.grid.res
+        end = offset + round(factor) * np.asarray(grid.shape[:2])
+        ok = _is_whole(factor) and np.all(_is_whole(offset)) and np.all(offset > -1e-6)
+        if not (ok and np.all(end <= np.asarray(self.grid.shape[:2]) + 1e-6)):
+            raise ConfigError(
+                f"grid {grid.low[:2].tolist()}–{grid.high[:2].tolist()} m with {grid.res} m cells "
+                f"must lie inside the map and be aligned to its {self.grid.res} m voxels"
+            )
+        return (int(round(offset[0])), int(round(offset[1]))), int(round(factor))
+
+    def _band_layers(self, band_m: tuple[float, float]) -> tuple[int, int]:
+        """[k0, k1): the z layers whose voxel centres lie in the closed band, within the map."""
+        low = (band_m[0] - self.grid.origin[2]) / self.grid.res - 0.5
+        high = (band_m[1] - self.grid.origin[2]) / self.grid.res - 0.5
+        k0 = max(math.ceil(low - 1e-6), 0)
+        k1 = min(math.floor(high + 1e-6) + 1, self.grid.shape[2])
+        return k0, max(k0, k1)
+
+    # ------------------------------------------------------------------ files
+
+    def save(self, path: str | Path) -> None:
+        """Write the map to a ``.npz`` file (known voxels only)."""
+        index, logodds = self._voxels_at_least(0.0)
+        np.savez_compressed(
+            Path(path),
+            format=np.array(_FORMAT),
+            origin=np.asarray(self.grid.origin, float),
+            res=np.float64(self.grid.res),
+            shape=np.asarray(self.grid.shape, np.int64),
+            params=np.array([self.params[k] for k in _PARAM_KEYS]),
+            index=self.grid.ravel(index).astype(np.int64),
+            logodds=logodds,
+        )
+
+    @classmethod
+    def load(cls, path: str | Path) -> OccupancyMap:
+        """Read a map written by :meth:`save`."""
+        with np.load(Path(path)) as data:
+            if "format" not in data or str(data["format"]) != _FORMAT:
+                raise NbvGymError(f"{path} is not an nbv-gym occupancy map ({_FORMAT} .npz file)")
+            grid = GridSpec(
+                tuple(float(v) for v in data["origin"]),
+                float(data["res"]),
+                tuple(int(v) for v in data["shape"]),
+            )
+            params = dict(zip(_PARAM_KEYS, (float(v) for v in data["params"]), strict=True))
+            logodds = np.full(grid.shape, np.nan, np.float32)
+            logodds.ravel()[data["index"]] = data["logodds"]
+        return cls.from_logodds(grid, logodds, **params)
+
+    @classmethod
+    def from_logodds(cls, grid: GridSpec, logodds: np.ndarray, **params: float) -> OccupancyMap:
+        """A map over ``grid`` holding the (nx, ny, nz) float ``logodds`` (NaN = unknown);
+        ``params`` are the constructor's keyword arguments."""
+        logodds = np.asarray(logodds, dtype=np.float32)
+        if logodds.shape != grid.shape:
+            raise NbvGymError(
+                f"logodds must have the grid's shape {grid.shape}, got {logodds.shape}"
+            )
+        occupancy = cls(grid, **params)
+        occupancy._set_dense(logodds)
+        return occupancy
+
+    def to_ply(self, path: str | Path, min_probability: float = 0.5) -> int:
+        """Write the centres of the known voxels with probability ≥ ``min_probability`` (0 = every
+        known voxel) to a binary PLY file, the probability as the per-vertex scalar ``quality``
+        (CloudCompare shows it as a scalar field, MeshLab as vertex quality). Returns the count."""
+        index, logodds = self._voxels_at_least(min_probability)
+        vertices = np.empty(len(index), dtype=[("xyz", "<f4", 3), ("quality", "<f4")])
+        vertices["xyz"] = self.grid.centres(index)
+        vertices["quality"] = _probability(logodds)
+        header = (
+            "ply\nformat binary_little_endian 1.0\n"
+            "comment nbv-gym occupancy map: voxel centres, quality = occupancy probability\n"
+            f"comment resolution_m {self.grid.res}\n"
+            f"element vertex {len(index)}\n"
+            "property float x\nproperty float y\nproperty float z\nproperty float quality\n"
+            "end_header\n"
+        )
+        with open(path, "wb") as f:
+            f.write(header.encode("ascii"))
+            f.write(vertices.tobytes())
+        return len(index)
+
+
+_PARAM_KEYS = ("p_hit", "p_miss", "p_clamp_min", "p_clamp_max", "p_occupied", "max_range_m")
+
+
+def _probability(logodds: np.ndarray) -> np.ndarray:
+    """float32 probability of float32 log-odds, 0.5 for NaN (unknown)."""
+    p = 1.0 / (1.0 + np.exp(-logodds.astype(np.float32)))
+    return np.where(np.isnan(p), np.float32(0.5), p).astype(np.float32)
+
+
+def _at_least(logodds: np.ndarray, threshold: np.float32) -> np.ndarray:
+    """bool: known (not NaN) and ≥ ``threshold``."""
+    return np.greater_equal(
+        logodds, threshold, where=~np.isnan(logodds), out=np.zeros(logodds.shape, bool)
+    )
+
+
+def _untile(mask: np.ndarray) -> np.ndarray:
+    """(tiles_x · 4, tiles_y · 4) array of a (tiles_x, tiles_y, 4, 4) tiled layer."""
+    tx, ty = mask.shape[:2]
+    return mask.transpose(0, 2, 1, 3).reshape(tx * TILE, ty * TILE)
+
+
+def _is_whole(x, tol: float = 1e-6):
+    """Whether ``x`` (scalar or array) is within ``tol`` of an integer."""
+    return np.abs(np.asarray(x) - np.rint(x)) < tol
+
+
+def _as_points(points: FloatArray) -> np.ndarray:
+    """(n, 3) float64 points; NbvGymError for any other shape."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise NbvGymError(f"points must be an (n, 3) array of metres, got shape {points.shape}")
+    return points

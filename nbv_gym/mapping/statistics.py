@@ -1,0 +1,223 @@
+"""The viewpoint-statistics grid G (SPEC §3, paper §III-B).
+
+Per 1 m cell: ``n_obs`` observations; ``r_min`` the smallest range of a viewpoint (range of a cell =
+distance from the sensor to the cell's centre); the 32-sector azimuth bitmask and its popcount
+``n_omega``; the sum of the unit viewing directions ``u = (O − C) / |O − C|`` (sensor O, cell centre
+C) giving the spherical variance ``sigma_theta = 1 − |Σu| / n_obs``.
+
+For each return whose map-frame z is ≥ ``min_return_z_m``, the cell of the return and every cell the
+segment return → sensor crosses receive one observation from the sensor if their range is in
+``[min_range_cells · cell_m, max_range_m)``; each cell at most once per scan.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from nbv_gym.arrays import FloatArray
+from nbv_gym.config import check
+from nbv_gym.errors import NbvGymError
+from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.traversal import observe_scan
+
+_FORMAT = "nbv_gym.ViewpointStatistics/1"
+_ARRAYS = ("n_obs", "r_min_raw", "sector_mask", "sum_u")
+
+
+@dataclass(frozen=True)
+class StatisticsConfig:
+    """Geometry and observation rules of the statistics grid G.
+
+    ``min_range_cells`` is the lower end of the range window in cells (√3: a cell's diagonal), and
+    ``min_return_z_m`` keeps returns from the ground out.
+    """
+
+    cell_m: float = 1.0
+    low_m: tuple[float, float, float] = (-30.0, -30.0, 0.2)
+    high_m: tuple[float, float, float] = (30.0, 30.0, 6.2)
+    n_sectors: int = 32
+    min_range_cells: float = math.sqrt(3.0)
+    min_return_z_m: float = 0.2
+
+    def __post_init__(self) -> None:
+        check(self.cell_m > 0, "cell_m", f"must be > 0, got {self.cell_m}")
+        check(1 <= self.n_sectors <= 32, "n_sectors", f"must be in 1..32, got {self.n_sectors}")
+        check(
+            self.min_range_cells >= 0, "min_range_cells", f"must be ≥ 0, got {self.min_range_cells}"
+        )
+        self.grid()
+
+    def grid(self) -> GridSpec:
+        """The grid G."""
+        return GridSpec.from_bounds(self.low_m, self.high_m, self.cell_m)
+
+
+class ViewpointStatistics:
+    """The statistics grid G, updated scan by scan.
+
+    Args:
+        grid: the grid G.
+        n_sectors: azimuth sectors (≤ 32, one bit each of ``sector_mask``).
+        min_range_m, max_range_m: range window ``[min, max)`` of an observation, metres.
+        min_return_z_m: returns below this map-frame height are ignored.
+    """
+
+    def __init__(
+        self,
+        grid: GridSpec,
+        *,
+        n_sectors: int,
+        min_range_m: float,
+        max_range_m: float,
+        min_return_z_m: float,
+    ):
+        check(0 <= min_range_m < max_range_m, "max_range_m", "need 0 ≤ min_range_m < max_range_m")
+        self.grid = grid
+        self.n_sectors = int(n_sectors)
+        self.range_window_m = (float(min_range_m), float(max_range_m))
+        self.min_return_z_m = float(min_return_z_m)
+        self._n_obs = np.zeros(grid.shape, np.int32)
+        self._r_min = np.full(grid.shape, np.inf)
+        self._sectors = np.zeros(grid.shape, np.uint32)
+        self._sum_u = np.zeros((*grid.shape, 3))
+        self._stamp = np.full(grid.shape, -1, np.int64)
+        self._scan_id = 0
+
+    @classmethod
+    def from_config(cls, config: StatisticsConfig, max_range_m: float) -> ViewpointStatistics:
+        """Empty statistics as ``config`` describes, for a sensor of range ``max_range_m`` metres."""
+        return cls(
+            config.grid(),
+            n_sectors=config.n_sectors,
+            min_range_m=config.min_range_cells * config.cell_m,
+            max_range_m=max_range_m,
+            min_return_z_m=config.min_return_z_m,
+        )
+
+    def update(self, origin: FloatArray, points: FloatArray) -> int:
+        """Add one scan's observations.
+
+        Args:
+            origin: (3,) float sensor position in the map frame, metres.
+            points: (n, 3) float returns in the map frame, metres; rows with a NaN or infinite
+                coordinate and returns below ``min_return_z_m`` are skipped.
+
+        Returns:
+            The number of returns used.
+        """
+        origin = np.asarray(origin, dtype=np.float64).reshape(3)
+        if not np.isfinite(origin).all():
+            raise NbvGymError(f"sensor position must be finite, got {origin.tolist()}")
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        keep = np.isfinite(points).all(axis=1)
+        keep[keep] = points[keep, 2] >= self.min_return_z_m
+        observe_scan(
+            self._n_obs,
+            self._r_min,
+            self._sectors,
+            self._sum_u,
+            self._stamp,
+            self._scan_id,
+            origin,
+            points[keep],
+            self.grid.low,
+            float(self.grid.res),
+            np.asarray(self.range_window_m),
+            self.n_sectors,
+        )
+        self._scan_id += 1
+        return int(keep.sum())
+
+    # ------------------------------------------------------------------ read-out (G's shape)
+
+    @property
+    def n_obs(self) -> np.ndarray:
+        """(nx, ny, nz) int32 number of observations."""
+        return self._n_obs.copy()
+
+    @property
+    def r_min(self) -> np.ndarray:
+        """(nx, ny, nz) float64 smallest observation range, metres; NaN where never observed."""
+        return np.where(self._n_obs > 0, self._r_min, np.nan)
+
+    @property
+    def sector_mask(self) -> np.ndarray:
+        """(nx, ny, nz) uint32 azimuth sectors observed from: bit s set iff sector s was."""
+        return self._sectors.copy()
+
+    @property
+    def n_omega(self) -> np.ndarray:
+        """(nx, ny, nz) int32 number of azimuth sectors observed from."""
+        return popcount(self._sectors)
+
+    @property
+    def sum_u(self) -> np.ndarray:
+        """(nx, ny, nz, 3) float64 sum of the unit vectors cell centre → sensor."""
+        return self._sum_u.copy()
+
+    @property
+    def sigma_theta(self) -> np.ndarray:
+        """(nx, ny, nz) float64 spherical variance 1 − |Σu| / n_obs in [0, 1]; 0 where never
+        observed (and after one observation)."""
+        return spherical_variance(self._sum_u, self._n_obs)
+
+    # ------------------------------------------------------------------ files
+
+    def save(self, path: str | Path) -> None:
+        """Write the statistics to a ``.npz`` file."""
+        np.savez_compressed(
+            Path(path),
+            format=np.array(_FORMAT),
+            origin=np.asarray(self.grid.origin, float),
+            res=np.float64(self.grid.res),
+            shape=np.asarray(self.grid.shape, np.int64),
+            n_sectors=np.int64(self.n_sectors),
+            range_window_m=np.asarray(self.range_window_m),
+            min_return_z_m=np.float64(self.min_return_z_m),
+            n_obs=self._n_obs,
+            r_min_raw=self._r_min,
+            sector_mask=self._sectors,
+            sum_u=self._sum_u,
+        )
+
+    @classmethod
+    def load(cls, path: str | Path) -> ViewpointStatistics:
+        """Read statistics written by :meth:`save`."""
+        with np.load(Path(path)) as data:
+            if "format" not in data or str(data["format"]) != _FORMAT:
+                raise NbvGymError(f"{path} is not an nbv-gym statistics file ({_FORMAT} .npz)")
+            grid = GridSpec(
+                tuple(float(v) for v in data["origin"]),
+                float(data["res"]),
+                tuple(int(v) for v in data["shape"]),
+            )
+            low, high = (float(v) for v in data["range_window_m"])
+            stats = cls(
+                grid,
+                n_sectors=int(data["n_sectors"]),
+                min_range_m=low,
+                max_range_m=high,
+                min_return_z_m=float(data["min_return_z_m"]),
+            )
+            stats._n_obs[...] = data["n_obs"]
+            stats._r_min[...] = data["r_min_raw"]
+            stats._sectors[...] = data["sector_mask"]
+            stats._sum_u[...] = data["sum_u"]
+        return stats
+
+
+def popcount(mask: np.ndarray) -> np.ndarray:
+    """int32 number of set bits of each uint32 in ``mask``."""
+    bits = np.unpackbits(np.ascontiguousarray(mask, dtype="<u4").view(np.uint8), axis=-1)
+    return bits.reshape(*mask.shape, 32).sum(axis=-1, dtype=np.int32)
+
+
+def spherical_variance(sum_u: np.ndarray, n_obs: np.ndarray) -> np.ndarray:
+    """float64 ``1 − |Σu| / n`` of (..., 3) sums of unit vectors over (...) counts; 0 where n = 0."""
+    length = np.linalg.norm(sum_u, axis=-1)
+    n = np.maximum(n_obs, 1)
+    return np.clip(np.where(n_obs > 0, 1.0 - length / n, 0.0), 0.0, 1.0)

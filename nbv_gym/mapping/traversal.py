@@ -1,0 +1,329 @@
+"""Compiled voxel traversals: the hot paths of the occupancy map and the viewpoint statistics.
+
+Everything here works in *grid units*: a point ``p`` in metres becomes ``(p - low) / res``, so cell
+``(i, j, k)`` covers ``[i, i + 1) × [j, j + 1) × [k, k + 1)``. The functions are numba-compiled
+(``cache=True``) and take plain arrays; the classes of :mod:`nbv_gym.mapping` convert units and check
+inputs before calling them.
+
+The map traversal mirrors OctoMap's ``computeRayKeys`` (Amanatides–Woo 3D DDA): the ray's first cell
+is the sensor's, the endpoint's cell is excluded, ties between axes go to the later axis, and the walk
+stops early if it overshoots the ray's length (a numerical safeguard OctoMap has too).
+
+Map storage is *tiled* for cache locality: a flat float32 array of z layers, each layer a row-major
+grid of 4 × 4 (x, y) tiles of 16 voxels — one 64-byte cache line — so that a mostly horizontal ray
+touches a new cache line every few cells instead of at every cell (see :func:`tile_index`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_BIG = 1e300
+TILE = 4  # voxels per tile side along x and y
+
+
+@njit(cache=True, inline="always")
+def tile_index(ix, iy, iz, tiles_x, tiles_y) -> int:
+    """Flat index of voxel ``(ix, iy, iz)`` in tiled storage with ``tiles_x × tiles_y`` tiles per
+    z layer."""
+    return ((iz * tiles_x + (ix >> 2)) * tiles_y + (iy >> 2)) * 16 + ((ix & 3) << 2) + (iy & 3)
+
+
+@njit(cache=True, inline="always")
+def _axis_setup(origin: float, direction: float, cell: int) -> tuple[int, float, float]:
+    """Step sign, distance to the first cell border and distance between borders along one axis."""
+    if direction > 0.0:
+        return 1, (cell + 1.0 - origin) / direction, 1.0 / direction
+    if direction < 0.0:
+        return -1, (cell - origin) / direction, -1.0 / direction
+    return 0, _BIG, _BIG
+
+
+@njit(cache=True, inline="always")
+def _argmin_octomap(tx: float, ty: float, tz: float) -> int:
+    """The axis OctoMap advances along: the smallest ``t``, ties going to the later axis."""
+    if tx < ty:
+        return 0 if tx < tz else 2
+    return 1 if ty < tz else 2
+
+
+@njit(cache=True, inline="always")
+def _window_bit(ix, iy, iz, w) -> int:
+    """Index of a voxel's bit in the per-scan marking window, or -1 outside the window or the map.
+
+    ``w`` = (low x, y, z, limit x, y, z, bricks along y, bricks along z): the window is stored in
+    bricks of 8 × 8 × 8 bits, one 64-byte cache line each; the limit is
+    ``min(window shape, map shape − low)``.
+    """
+    a, b, c = ix - w[0], iy - w[1], iz - w[2]
+    if a < 0 or b < 0 or c < 0 or a >= w[3] or b >= w[4] or c >= w[5]:
+        return -1
+    brick = ((a >> 3) * w[6] + (b >> 3)) * w[7] + (c >> 3)
+    return (brick << 9) | ((a & 7) << 6) | ((b & 7) << 3) | (c & 7)
+
+
+@njit(cache=True, inline="always")
+def _test_and_set(marks, bit: int) -> bool:
+    """Set ``bit`` of the bitset ``marks``; True if it was already set."""
+    byte, mask = bit >> 3, np.uint8(1 << (bit & 7))
+    if marks[byte] & mask:
+        return True
+    marks[byte] |= mask
+    return False
+
+
+@njit(cache=True, inline="always")
+def _update_voxel(store, ix, iy, iz, tiles, delta, lo_min, lo_max, touched, cells) -> None:
+    """Add ``delta`` to a voxel's log-odds (unknown counts as 0), clamp to ``[lo_min, lo_max]`` and
+    flag its coarse cell if the stored value changed; ``tiles`` = (tiles_x, tiles_y)."""
+    i = tile_index(ix, iy, iz, tiles[0], tiles[1])
+    old = store[i]
+    known = not math.isnan(old)
+    new = (old if known else np.float32(0.0)) + delta
+    if new < lo_min:
+        new = lo_min
+    elif new > lo_max:
+        new = lo_max
+    if known and new == old:
+        return
+    store[i] = new
+    a, b, c = cells[0, ix], cells[1, iy], cells[2, iz]
+    if a >= 0 and b >= 0 and c >= 0:
+        touched[a, b, c] = True
+
+
+@njit(cache=True, inline="always")
+def _window_tuple(window):
+    """The marking window's (3, 3) array as the scalars :func:`_window_bit` reads."""
+    return (window[0, 0], window[0, 1], window[0, 2], window[1, 0], window[1, 1], window[1, 2],
+            window[2, 1] >> 3, window[2, 2] >> 3)  # fmt: skip
+
+
+@njit(cache=True)
+def insert_scan(
+    store, dims, origin, points, max_range, deltas, bounds, marks, window, touched, cells
+):
+    """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
+
+    First every return within ``max_range`` gets a hit (once per voxel), then every voxel of every
+    ray's free pass not yet updated in this scan gets a miss; far returns carve up to ``max_range``.
+
+    Args:
+        store: flat float32 tiled log-odds (:func:`tile_index`), NaN = unknown; updated in place.
+        dims: (tiles_x, tiles_y, nx, ny, nz) int64 tiles per layer and the map's shape in voxels.
+        origin: (3,) float64 sensor position in grid units, inside the map.
+        points: (n, 3) float64 finite returns in grid units.
+        max_range: sensor range in grid units.
+        deltas: (2,) float32 log-odds of a hit and of a miss; bounds: (2,) float32 clamping bounds.
+        marks: uint8 bitset over the window, all zero on entry (left set on return).
+        window: (3, 3) int64 rows: low voxel, limit (``min(shape, map shape − low)``) and shape
+            (multiples of 8) of the marking window, which must hold every voxel within range.
+        touched: (a, b, c) bool coarse grid; a cell is set when a voxel inside it changes value.
+        cells: (3, max(nx, ny, nz)) int64 coarse cell index of each voxel index along x, y, z
+            (row 0, 1, 2), −1 outside the coarse grid.
+
+    Returns:
+        Number of voxels that received a hit.
+    """
+    n_hits = 0
+    w = _window_tuple(window)
+    tiles = (dims[0], dims[1])
+    lo_min, lo_max = bounds[0], bounds[1]
+    near = np.empty(len(points), dtype=np.bool_)
+    for r in range(len(points)):
+        p = points[r]
+        d = math.sqrt((p[0] - origin[0]) ** 2 + (p[1] - origin[1]) ** 2 + (p[2] - origin[2]) ** 2)
+        near[r] = d <= max_range
+        if not near[r]:
+            continue
+        ix, iy, iz = int(math.floor(p[0])), int(math.floor(p[1])), int(math.floor(p[2]))
+        bit = _window_bit(ix, iy, iz, w)
+        if bit >= 0 and not _test_and_set(marks, bit):
+            _update_voxel(store, ix, iy, iz, tiles, deltas[0], lo_min, lo_max, touched, cells)
+            n_hits += 1
+    end = np.empty(3)
+    for r in range(len(points)):
+        p = points[r]
+        scale = 1.0
+        if not near[r]:
+            d = math.sqrt(
+                (p[0] - origin[0]) ** 2 + (p[1] - origin[1]) ** 2 + (p[2] - origin[2]) ** 2
+            )
+            scale = max_range / d
+        for a in range(3):
+            end[a] = origin[a] + (p[a] - origin[a]) * scale if scale < 1.0 else p[a]
+        _carve_ray(store, tiles, origin, end, deltas[1], lo_min, lo_max, marks, w, touched, cells)
+    return n_hits
+
+
+@njit(cache=True)
+def _carve_ray(store, tiles, o, e, miss, lo_min, lo_max, marks, w, touched, cells) -> None:
+    """Free pass from ``o`` towards ``e`` (grid units): every voxel OctoMap's ``computeRayKeys``
+    yields — the sensor's voxel included, the endpoint's voxel excluded — not yet marked in this
+    scan gets one miss. Stops where the ray leaves the map (or the window, which holds the range)."""
+    cx, cy, cz = int(math.floor(o[0])), int(math.floor(o[1])), int(math.floor(o[2]))
+    ex, ey, ez = int(math.floor(e[0])), int(math.floor(e[1])), int(math.floor(e[2]))
+    if cx == ex and cy == ey and cz == ez:
+        return
+    dx, dy, dz = e[0] - o[0], e[1] - o[1], e[2] - o[2]
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    sx, tx, ddx = _axis_setup(o[0], dx / length, cx)
+    sy, ty, ddy = _axis_setup(o[1], dy / length, cy)
+    sz, tz, ddz = _axis_setup(o[2], dz / length, cz)
+    while True:
+        bit = _window_bit(cx, cy, cz, w)
+        if bit < 0:
+            return
+        if not _test_and_set(marks, bit):
+            _update_voxel(store, cx, cy, cz, tiles, miss, lo_min, lo_max, touched, cells)
+        axis = _argmin_octomap(tx, ty, tz)
+        if axis == 0:
+            cx += sx
+            tx += ddx
+        elif axis == 1:
+            cy += sy
+            ty += ddy
+        else:
+            cz += sz
+            tz += ddz
+        if cx == ex and cy == ey and cz == ez:
+            return
+        if min(tx, min(ty, tz)) > length:
+            return
+
+
+@njit(cache=True, inline="always")
+def _clip_segment(a, b, shape) -> tuple[float, float]:
+    """Parameters ``t0 ≤ t1`` of the part of segment ``a + t (b - a)``, t ∈ [0, 1], inside the box
+    ``[0, shape]``; ``t0 > t1`` if it misses the box."""
+    t0, t1 = 0.0, 1.0
+    for k in range(3):
+        d = b[k] - a[k]
+        if d == 0.0:
+            if a[k] < 0.0 or a[k] > shape[k]:
+                return 1.0, 0.0
+            continue
+        u, v = (0.0 - a[k]) / d, (shape[k] - a[k]) / d
+        if u > v:
+            u, v = v, u
+        t0, t1 = max(t0, u), min(t1, v)
+    return t0, t1
+
+
+@njit(cache=True, inline="always")
+def _cell_of(x: float, n: int) -> int:
+    """Cell index of a coordinate on the closed segment [0, n], the high border in the last cell."""
+    return min(max(int(math.floor(x)), 0), n - 1)
+
+
+@njit(cache=True)
+def _observe_cell(stats, i, j, k, origin, cell_m, low, window, n_sectors) -> None:
+    """Add one observation from ``origin`` (metres) to cell ``(i, j, k)`` if its centre's range is in
+    ``window = (min, max)`` metres: ``[min, max)``."""
+    n_obs, r_min, sectors, sum_u = stats
+    cxm = low[0] + (i + 0.5) * cell_m
+    cym = low[1] + (j + 0.5) * cell_m
+    czm = low[2] + (k + 0.5) * cell_m
+    ux, uy, uz = origin[0] - cxm, origin[1] - cym, origin[2] - czm
+    r = math.sqrt(ux * ux + uy * uy + uz * uz)
+    if r < window[0] or r >= window[1]:
+        return
+    n_obs[i, j, k] += 1
+    if r < r_min[i, j, k]:
+        r_min[i, j, k] = r
+    theta = math.atan2(uy, ux)
+    if theta < 0.0:
+        theta += 2.0 * math.pi
+    sector = min(int(math.floor(theta * n_sectors / (2.0 * math.pi))), n_sectors - 1)
+    sectors[i, j, k] |= np.uint32(1) << np.uint32(sector)
+    sum_u[i, j, k, 0] += ux / r
+    sum_u[i, j, k, 1] += uy / r
+    sum_u[i, j, k, 2] += uz / r
+
+
+@njit(cache=True)
+def _observe_segment(stats, stamp, scan_id, a, b, origin, cell_m, low, window, n_sectors) -> None:
+    """Observe every cell the segment ``a → b`` (grid units, clipped to the grid) crosses, both end
+    cells included, each at most once per scan (``stamp`` holds the last scan that touched it)."""
+    n = stamp.shape
+    t0, t1 = _clip_segment(a, b, n)
+    if t0 > t1:
+        return
+    d = b - a
+    p = a + t0 * d
+    q = a + t1 * d
+    cx, cy, cz = _cell_of(p[0], n[0]), _cell_of(p[1], n[1]), _cell_of(p[2], n[2])
+    ex, ey, ez = _cell_of(q[0], n[0]), _cell_of(q[1], n[1]), _cell_of(q[2], n[2])
+    seg = q - p
+    length = math.sqrt(seg[0] ** 2 + seg[1] ** 2 + seg[2] ** 2)
+    if length > 0.0:
+        seg /= length
+    sx, tx, ddx = _axis_setup(p[0], seg[0], cx)
+    sy, ty, ddy = _axis_setup(p[1], seg[1], cy)
+    sz, tz, ddz = _axis_setup(p[2], seg[2], cz)
+    for _ in range(n[0] + n[1] + n[2] + 3):
+        if stamp[cx, cy, cz] != scan_id:
+            stamp[cx, cy, cz] = scan_id
+            _observe_cell(stats, cx, cy, cz, origin, cell_m, low, window, n_sectors)
+        if (cx == ex and cy == ey and cz == ez) or min(tx, min(ty, tz)) > length + 1e-9:
+            return
+        axis = _argmin_octomap(tx, ty, tz)
+        if axis == 0:
+            cx += sx
+            tx += ddx
+        elif axis == 1:
+            cy += sy
+            ty += ddy
+        else:
+            cz += sz
+            tz += ddz
+        if not (0 <= cx < n[0] and 0 <= cy < n[1] and 0 <= cz < n[2]):
+            return
+
+
+@njit(cache=True)
+def observe_scan(
+    n_obs,
+    r_min,
+    sectors,
+    sum_u,
+    stamp,
+    scan_id,
+    origin,
+    points,
+    low,
+    cell_m,
+    window,
+    n_sectors,
+) -> None:
+    """Update the viewpoint statistics with one scan (SPEC §3).
+
+    Every cell crossed by a segment from a return to the sensor, the return's cell included, receives
+    at most one observation per scan, seen from the sensor, if the range of its centre lies in
+    ``[window[0], window[1])``.
+
+    Args:
+        n_obs: (nx, ny, nz) int32; r_min: float64 (+inf = never observed); sectors: uint32 bitmask;
+            sum_u: (nx, ny, nz, 3) float64 sum of unit vectors cell → sensor. Updated in place.
+        stamp: (nx, ny, nz) int64 id of the last scan that touched each cell.
+        scan_id: id of this scan, different from every id already in ``stamp``.
+        origin: (3,) float64 sensor position, metres.
+        points: (n, 3) float64 returns in metres (already filtered by height and finiteness).
+        low: (3,) float64 low corner of the grid, metres; cell_m: cell size, metres.
+        window: (2,) float64 range window of a cell centre, metres.
+        n_sectors: number of azimuth sectors (≤ 32).
+    """
+    stats = (n_obs, r_min, sectors, sum_u)
+    o_grid = (origin - low) / cell_m
+    reach = window[1] + 0.5 * math.sqrt(3.0) * cell_m
+    a = np.empty(3)
+    for r in range(len(points)):
+        p = points[r]
+        d = math.sqrt((p[0] - origin[0]) ** 2 + (p[1] - origin[1]) ** 2 + (p[2] - origin[2]) ** 2)
+        s = 1.0 if d <= reach else reach / d
+        for k in range(3):
+            a[k] = (origin[k] + (p[k] - origin[k]) * s - low[k]) / cell_m
+        _observe_segment(stats, stamp, scan_id, a, o_grid, origin, cell_m, low, window, n_sectors)

@@ -1,0 +1,111 @@
+"""Navigation layer on crafted maps: projection, erosion, frontiers, path lengths, goals."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nbv_gym.errors import ConfigError, NbvGymError
+from nbv_gym.grid import GridSpec
+from nbv_gym.mapping import NavigationConfig, NavigationLayer
+from nbv_gym.mapping.navigation import disc, path_lengths
+
+R2 = math.sqrt(2.0)
+# goals: x, y ∈ [-3, 3] at 1 m (6 × 6); nav cells: 0.5 m over [-3, 3] (12 × 12), cell a covers
+# x ∈ [-3 + 0.5 a, -2.5 + 0.5 a).
+GOALS = GridSpec.from_bounds((-3.0, -3.0, 0.2), (3.0, 3.0, 1.2), 1.0)
+
+
+def layer() -> NavigationLayer:
+    return NavigationLayer.from_config(NavigationConfig(), GOALS)
+
+
+def known_free_west() -> tuple[np.ndarray, np.ndarray]:
+    """Known and occupied nav cells: known free for x < 0 (columns 0–5), unknown elsewhere."""
+    known = np.zeros((12, 12), bool)
+    known[:6] = True
+    return known, np.zeros((12, 12), bool)
+
+
+def test_config_defaults_and_checks():
+    config = NavigationConfig()
+    assert (config.cell_m, config.robot_radius_m, config.search_range_m) == (0.5, 0.5, 20.0)
+    assert config.known_band_m == (-0.3, 1.0) and config.occupied_band_m == (0.2, 1.0)
+    with pytest.raises(ConfigError, match="frontier_unknown_dilation_m"):
+        NavigationConfig(frontier_unknown_dilation_m=0.5)
+
+
+def test_disc_elements():
+    assert disc(0.5, 0.5).sum() == 9  # the 3 × 3 block
+    expected = np.ones((5, 5), bool)
+    expected[[0, 0, 4, 4], [0, 4, 0, 4]] = False  # corners are 1.06 m away
+    np.testing.assert_array_equal(disc(1.0, 0.5)[1:-1, 1:-1], expected)
+    assert disc(1.0, 0.5).sum() == 21
+
+
+def test_frontier_sits_where_known_free_meets_unknown():
+    nav = layer()
+    nav.project(*known_free_west())
+    assert nav.discovered_fraction == pytest.approx(0.5)
+    # eroded free: columns 1–4 of rows 1–10 (column 5 touches unknown, the border touches outside)
+    expected_eroded = np.zeros((12, 12), bool)
+    expected_eroded[1:5, 1:11] = True
+    np.testing.assert_array_equal(nav.eroded_free, expected_eroded)
+    # dilated unknown (1 m) reaches column 4; the 1 m border margin keeps rows 2–9
+    expected = np.zeros((12, 12), bool)
+    expected[4, 2:10] = True
+    np.testing.assert_array_equal(nav.frontier_mask, expected)
+
+
+def test_occupied_cells_push_the_frontier_back_by_the_margin():
+    known, occupied = known_free_west()
+    occupied[4, 6] = True  # an obstacle
+    nav = layer()
+    nav.project(known, occupied)
+    # 1 m margin around (4, 6): rows 4–8 of column 4 (offset 2 rows = 0.75 m gap < 1 m)
+    assert np.flatnonzero(nav.frontier_mask[4]).tolist() == [2, 3, 9]
+
+
+def test_path_lengths_are_8_connected_distances_around_a_wall():
+    passable = np.ones((5, 5), bool)
+    passable[2, 0:4] = False  # a wall along row 2 with a gap at column 4
+    d = path_lengths(passable, (0, 0), 0.5)
+    # to (0, 4): 4 straight steps. To the gap (2, 4): +2 rows, +4 columns = 2 diagonal + 2
+    # straight steps; from the gap to (4, 0): +2 rows, −4 columns, the same again.
+    assert d[0, 4] == pytest.approx(2.0)
+    assert d[4, 0] == pytest.approx(0.5 * (4 + 4 * R2))
+    assert d[2, 4] == pytest.approx(0.5 * (2 + 2 * R2))
+    assert np.isinf(d[2, 0])
+    walled = passable.copy()
+    walled[2, 4] = False
+    assert np.isinf(path_lengths(walled, (0, 0), 0.5)[4, 0])
+
+
+def test_goals_valid_costs_and_frontier_goals():
+    nav = layer()
+    nav.update(*known_free_west(), robot_xy=(-1.5, -1.5))  # goal (1, 1), nav cell (3, 3)
+    assert nav.robot_goal == 1 * 6 + 1
+    mask = nav.goal_mask().reshape(6, 6)
+    # goal (i, j) has centre (-2.5 + i, -2.5 + j) and nav cell (2i + 1, 2j + 1); eroded free
+    # needs 2i + 1 ≤ 4, 1 ≤ 2j + 1 ≤ 10; the 1 m border margin drops i, j ∈ {0, 5}; the robot's own
+    # goal is excluded.
+    expected = np.zeros((6, 6), bool)
+    expected[1, 1:5] = True
+    expected[1, 1] = False
+    np.testing.assert_array_equal(mask, expected)
+    length = nav.goal_path_length().reshape(6, 6)
+    assert length[1, 4] == pytest.approx(3.0)  # 6 straight steps along y
+    cost = nav.goal_cost().reshape(6, 6)
+    assert cost[1, 4] == pytest.approx(3.0 / 20.0)
+    assert cost[3, 3] == 1.0  # invalid
+    # frontier column 4 touches the nav cells (3, ·) of goals (1, ·), rows 2–9 → goal rows 1–4
+    np.testing.assert_array_equal(nav.frontier_goal_mask().reshape(6, 6), expected)
+
+
+def test_bad_inputs_are_rejected():
+    with pytest.raises(ConfigError, match="divide"):
+        NavigationLayer.from_config(NavigationConfig(cell_m=0.3), GOALS)
+    with pytest.raises(NbvGymError, match="shape"):
+        layer().project(np.zeros((6, 6), bool), np.zeros((6, 6), bool))

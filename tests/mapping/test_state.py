@@ -1,0 +1,70 @@
+"""The exploration state: one scan updates map, statistics and navigation together."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nbv_gym.errors import ConfigError, PoseError
+from nbv_gym.lidar import Scan
+from nbv_gym.mapping import (
+    ExplorationState,
+    MapConfig,
+    MappingConfig,
+    NavigationConfig,
+    StatisticsConfig,
+)
+from nbv_gym.pose import Pose
+
+SMALL = MappingConfig(
+    map=MapConfig(low_m=(-8.0, -8.0, -1.0), high_m=(8.0, 8.0, 3.0)),
+    statistics=StatisticsConfig(low_m=(-6.0, -6.0, 0.2), high_m=(6.0, 6.0, 2.2)),
+    navigation=NavigationConfig(),
+)
+
+
+SENSOR = Pose(0.05, 0.05, 0.45)
+
+
+def scan_from(points_map, pose: Pose = SENSOR) -> Scan:
+    points_map = np.asarray(points_map, float)
+    n = len(points_map)
+    return Scan(points_map - pose.position, np.linalg.norm(points_map - pose.position, axis=1),
+                np.arange(n), pose, pose, points_map)  # fmt: skip
+
+
+def test_config_defaults_and_box_check():
+    config = MappingConfig()
+    assert config.sensor_range_m == 20.0
+    with pytest.raises(ConfigError, match="inside the map box"):
+        MappingConfig(statistics=StatisticsConfig(low_m=(-40.0, -30.0, 0.2), high_m=(20, 30, 6.2)))
+
+
+def test_apply_updates_map_statistics_and_navigation():
+    state = ExplorationState.from_config(SMALL)
+    # a wall of returns 3 m east of the sensor, at z = 0.45 m
+    ys = np.linspace(-1.0, 1.0, 21)
+    update = state.apply(scan_from(np.column_stack([np.full(21, 3.05), ys, np.full(21, 0.45)])))
+    assert update.n_points == 21 and update.n_dropped == 0
+    # map voxels changed between x = 0 and 3.1 m, y in [-1, 1], z = 0.4–0.5: G cells (x 6–9,
+    # y 5–7, z 0) — G starts at -6 m in x, y and 0.2 m in z
+    touched = {tuple(c) for c in np.argwhere(update.touched)}
+    assert {(i, j, 0) for i in range(6, 10) for j in (5, 6)} <= touched
+    assert all(c[2] == 0 and 6 <= c[0] <= 9 and 4 <= c[1] <= 7 for c in touched)
+    assert update.touched_cells.tolist() == np.flatnonzero(update.touched).tolist()
+    assert state.statistics.n_obs[9, 6, 0] == 1  # the wall's cell, 3 m away
+    assert state.navigation.known.any() and state.navigation.discovered_fraction > 0
+
+
+def test_non_finite_points_are_dropped_and_a_pose_outside_the_map_raises():
+    state = ExplorationState.from_config(SMALL)
+    update = state.apply(scan_from([[3.0, 0.0, 0.45], [np.nan, 0.0, 0.0], [np.inf, 1.0, 1.0]]))
+    assert (update.n_points, update.n_dropped) == (3, 2)
+    with pytest.raises(PoseError, match="outside the map box"):
+        state.apply(scan_from([[3.0, 0.0, 0.45]], pose=Pose(20.0, 0.0, 0.45)))
+
+
+@pytest.mark.slow
+def test_full_size_map_memory_is_within_150_mb():
+    state = ExplorationState.from_config(MappingConfig())
+    assert state.occupancy.memory_bytes() <= 150e6

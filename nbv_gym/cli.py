@@ -105,6 +105,67 @@ def worlds_preview(
 
 
 @app.command()
+def run(
+    world: Annotated[str, typer.Option(help="World name or spec file.")] = "pp1-trees",
+    policy: Annotated[str, typer.Option(help="Policy name or module:Class.")] = "closest-frontier",
+    noise: Annotated[int, typer.Option(help="Localisation-noise level 0, 1 or 2.")] = 1,
+    seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
+    max_steps: Annotated[int, typer.Option(help="Truncate after this many steps.")] = 100,
+    out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
+    animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
+) -> None:
+    """Run one episode of a policy and write a self-describing run folder.
+
+    The folder holds steps.csv (step, goal, discovered, q, q_paper, reward, path_length_m,
+    time_s), summary.json (config, final figures, wall time, versions), map.npz,
+    statistics.npz and exploration.gif.
+
+    Examples:
+      nbv-gym run --world pp1-trees --policy closest-frontier --noise 1 --seed 0 --out runs/cf
+      nbv-gym run --policy my_module:MyPolicy --world my_world.toml --no-animation
+    """
+
+    from nbv_gym.env.explore import EnvConfig
+    from nbv_gym.episode import make_env, run_episode, write_run_folder
+    from nbv_gym.policies import load_policy
+    from nbv_gym.simulator import EpisodeConfig, SimulatorConfig
+
+    agent = load_policy(policy)
+    simulator = SimulatorConfig(
+        world=world, noise=noise, episode=EpisodeConfig(max_steps=max_steps)
+    )
+    env = make_env(EnvConfig(simulator), agent, render=animation)
+    frames = []
+
+    def report(row: dict, env) -> None:
+        _stderr(
+            f"step {row['step']:>3}  discovered {row['discovered']:6.1%}  Q {row['q']:.4f}  "
+            f"Q_paper {row['q_paper']:.4f}  path {row['path_length_m']:6.1f} m"
+        )
+        if animation:
+            frames.append(env.render()[::2, ::2])
+
+    result = run_episode(env, agent, seed, report)
+    meta = {"world": world, "policy": policy, "noise": noise, "seed": seed}
+    write_run_folder(out, env, result, meta)
+    if frames:
+        from PIL import Image
+
+        images = [Image.fromarray(frame) for frame in frames]
+        images[0].save(
+            out / "exploration.gif", save_all=True, append_images=images[1:], duration=600, loop=0
+        )
+    final = result.final
+    typer.echo(
+        f"{policy} on {world} (noise {noise}, seed {seed}): {final['step']} steps, "
+        f"discovered {final['discovered']:.1%}, Q {final['q']:.4f}, "
+        f"Q_paper {final['q_paper']:.4f}, path {final['path_length_m']:.1f} m, "
+        f"{result.wall_time_s:.1f} s — {result.end_reason}"
+    )
+    typer.echo(f"run folder: {out}")
+
+
+@app.command()
 def bench(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object.")] = False,
     suite: Annotated[list[str] | None, typer.Option(help="Only these suites.")] = None,
@@ -124,6 +185,15 @@ def bench(
         return
     for key, value in results.items():
         typer.echo(f"{key:<28} {value:>14,.4g}")
+
+
+def _register_evaluate() -> None:
+    from nbv_gym.metrics.command import evaluate
+
+    app.command()(evaluate)
+
+
+_register_evaluate()
 
 
 def main() -> None:

@@ -1,0 +1,408 @@
+"""Cuboid quality metrics of a reconstructed probability grid against a ground-truth grid (SPEC §5).
+
+The voxel grid is split into cuboids of ``n × n × n`` voxels (``n = cuboid_voxels``, 10 in the
+benchmark: the cells of the statistics grid G). Arrays are indexed ``[x, y, z]``; cuboid
+``(ci, cj, ck)`` holds voxels ``[ci*n:(ci+1)*n, cj*n:(cj+1)*n, ck*n:(ck+1)*n]``.
+
+Per cuboid (``002_…`` §III-A, the authors' code for the unobserved case):
+
+- ``U_occ``: the ground truth holds an occupied voxel; ``U_empty``: the rest.
+- unobserved iff every reconstructed p lies in the open band ``(0.4, 0.6)``; then cov = 0 and
+  L1 = 0.5·n³ (= 500), whatever the reconstruction. Thresholds are compared in the grid's own
+  precision (a float32 grid against float32(0.4)), so a voxel at p_miss = 0.4 counts as observed.
+- ``cov(p, d)`` on ``U_occ``: fraction of ground-truth voxels with a reconstructed voxel of
+  probability ``> p`` at a centre-to-centre distance ``<= d`` metres, searched inside the same cuboid.
+- ``L1``: the sum of p over the cuboid.
+
+Qualities, each a mean over all cuboids (``n_occ + n_empty``):
+
+- ``Q`` (*ours*, the reward): cov(0.7, 0.15) on ``U_occ``; on ``U_empty``
+  ``clip((0.5·n³ − L1) / ((0.5 − 0.12)·n³), 0, 1)`` — 1 at the clamping floor 0.12, 0 when unknown.
+- ``Q_paper``: equation (3) of ``002_…``: cov and L1 min–max normalised over the cuboids of their
+  set at that moment. Interpretation: when a set's values are all equal (max = min, e.g. nothing
+  observed yet) eq. (3) is undefined; we then use the fixed-bound value of ``Q`` for that set.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit, prange
+
+from nbv_gym.arrays import BoolArray, FloatArray, IntArray
+from nbv_gym.config import check
+from nbv_gym.grid import GridSpec
+from nbv_gym.metrics import MetricInputError
+
+#: The four (p, d_m) coverage settings of the papers; the last one is the default of Q.
+COV_SETTINGS: tuple[tuple[float, float], ...] = ((0.8, 0.05), (0.8, 0.10), (0.7, 0.10), (0.7, 0.15))
+
+
+def benchmark_grid() -> GridSpec:
+    """The voxel box the benchmark's metrics cover: G's extent at 0.1 m, shape (600, 600, 60)."""
+    return GridSpec.from_bounds((-30.0, -30.0, 0.2), (30.0, 30.0, 6.2), 0.1)
+
+
+@dataclass(frozen=True)
+class CuboidConfig:
+    """How cuboid metrics are computed (defaults: SPEC §5).
+
+    ``cuboid_voxels``: voxels per cuboid edge; ``voxel_size_m``: voxel edge in metres (turns the
+    coverage distances into voxel offsets); ``unknown_low``/``unknown_high``: the open probability
+    band of an unobserved cuboid; ``cov_settings``: (p, d metres) pairs; ``q_setting``: index of the
+    pair used by Q; ``clamp_min_p``: the map's lower clamp, the best empty-cuboid p;
+    ``unobserved_wd``: WD_occ of an unobserved cuboid.
+    """
+
+    cuboid_voxels: int = 10
+    voxel_size_m: float = 0.1
+    unknown_low: float = 0.4
+    unknown_high: float = 0.6
+    cov_settings: tuple[tuple[float, float], ...] = COV_SETTINGS
+    q_setting: int = 3
+    clamp_min_p: float = 0.12
+    unobserved_wd: float = 100.0
+
+    def __post_init__(self):
+        check(self.cuboid_voxels >= 1, "cuboid_voxels", f"must be >= 1, got {self.cuboid_voxels}")
+        check(self.voxel_size_m > 0, "voxel_size_m", f"must be > 0, got {self.voxel_size_m}")
+        check(
+            0 <= self.unknown_low < 0.5 < self.unknown_high <= 1,
+            "unknown_low",
+            f"need 0 <= unknown_low < 0.5 < unknown_high <= 1, got "
+            f"{self.unknown_low}, {self.unknown_high}",
+        )
+        check(len(self.cov_settings) >= 1, "cov_settings", "needs at least one (p, d) pair")
+        for p, d in self.cov_settings:
+            check(0 <= p < 1 and d >= 0, "cov_settings", f"need 0 <= p < 1, d >= 0; got {p, d}")
+        check(
+            0 <= self.q_setting < len(self.cov_settings),
+            "q_setting",
+            f"must index cov_settings (0..{len(self.cov_settings) - 1}), got {self.q_setting}",
+        )
+        check(
+            0 <= self.clamp_min_p < 0.5,
+            "clamp_min_p",
+            f"must be in [0, 0.5), got {self.clamp_min_p}",
+        )
+
+    @property
+    def cuboid_size(self) -> int:
+        """Voxels per cuboid (n³)."""
+        return self.cuboid_voxels**3
+
+    @property
+    def unobserved_l1(self) -> float:
+        """L1 of an unobserved cuboid: 0.5 · n³ (500 for n = 10)."""
+        return 0.5 * self.cuboid_size
+
+    @property
+    def best_l1(self) -> float:
+        """L1 of an empty cuboid at the clamping floor: clamp_min_p · n³ (120 for n = 10)."""
+        return self.clamp_min_p * self.cuboid_size
+
+
+@dataclass(frozen=True)
+class QualitySummary:
+    """Scalar qualities of a whole grid.
+
+    ``q``, ``q_paper`` in [0, 1]; ``cov``: mean cov over U_occ per setting (same order as
+    ``CuboidConfig.cov_settings``); ``l1``: mean L1 over U_empty; counts of cuboids.
+    """
+
+    q: float
+    q_paper: float
+    cov: tuple[float, ...]
+    l1: float
+    n_occ: int
+    n_empty: int
+    n_observed: int
+
+
+@dataclass
+class CuboidMetrics:
+    """Per-cuboid metrics, each array of the cuboid grid's shape ``(cx, cy, cz)``.
+
+    ``u_occ``/``observed`` bool; ``cov`` (s, cx, cy, cz) float64 (NaN on U_empty); ``l1`` float64
+    (all cuboids); ``quality`` float64: the per-cuboid term of Q.
+    """
+
+    u_occ: BoolArray
+    observed: BoolArray
+    cov: FloatArray
+    l1: FloatArray
+    quality: FloatArray
+    config: CuboidConfig = field(default_factory=CuboidConfig)
+
+    def summary(self) -> QualitySummary:
+        """The grid's :class:`QualitySummary`."""
+        occ, empty = self.u_occ, ~self.u_occ
+        cov_means = tuple(float(c[occ].mean()) if occ.any() else float("nan") for c in self.cov)
+        return QualitySummary(
+            q=float(self.quality.mean()),
+            q_paper=q_paper(self.cov[self.config.q_setting][occ], self.l1[empty], self.config),
+            cov=cov_means,
+            l1=float(self.l1[empty].mean()) if empty.any() else float("nan"),
+            n_occ=int(occ.sum()),
+            n_empty=int(empty.sum()),
+            n_observed=int(self.observed.sum()),
+        )
+
+
+def cuboid_shape(grid_shape: tuple[int, ...], cuboid_voxels: int) -> tuple[int, int, int]:
+    """Shape ``(cx, cy, cz)`` of the cuboid grid; raises if ``grid_shape`` is not a whole multiple."""
+    if len(grid_shape) != 3 or any(s <= 0 or s % cuboid_voxels for s in grid_shape):
+        raise MetricInputError(
+            f"grid shape {tuple(grid_shape)} is not a positive whole number of "
+            f"{cuboid_voxels}-voxel cuboids along each of x, y, z"
+        )
+    return tuple(s // cuboid_voxels for s in grid_shape)
+
+
+def check_grids(prob: FloatArray, gt: BoolArray, cuboid_voxels: int) -> tuple[int, int, int]:
+    """Check a probability grid and a ground-truth grid against each other; return the cuboid shape."""
+    prob, gt = np.asarray(prob), np.asarray(gt)
+    if prob.shape != gt.shape:
+        raise MetricInputError(
+            f"reconstruction grid shape {prob.shape} differs from ground-truth shape {gt.shape}; "
+            "both must cover the same voxel box at the same resolution"
+        )
+    if not np.issubdtype(prob.dtype, np.floating):
+        raise MetricInputError(f"reconstruction must hold probabilities (float), got {prob.dtype}")
+    return cuboid_shape(prob.shape, cuboid_voxels)
+
+
+def cuboid_view(grid: np.ndarray, cuboid_voxels: int) -> np.ndarray:
+    """(cx, cy, cz, n, n, n) view of a (cx·n, cy·n, cz·n) grid, no copy."""
+    cx, cy, cz = cuboid_shape(grid.shape, cuboid_voxels)
+    n = cuboid_voxels
+    return grid.reshape(cx, n, cy, n, cz, n).transpose(0, 2, 4, 1, 3, 5)
+
+
+def occupied_cuboids(gt: BoolArray, cuboid_voxels: int) -> BoolArray:
+    """(cx, cy, cz) bool: U_occ, the cuboids whose ground truth holds an occupied voxel."""
+    return cuboid_view(np.asarray(gt, bool), cuboid_voxels).any(axis=(3, 4, 5))
+
+
+def coverage_offsets(distance_m: float, voxel_size_m: float) -> IntArray:
+    """(k, 3) int64 voxel offsets whose centre distance ``|o|·voxel_size_m`` is ``<= distance_m``."""
+    reach = int(np.floor(distance_m / voxel_size_m + 1e-9))
+    axis = np.arange(-reach, reach + 1)
+    grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), -1).reshape(-1, 3)
+    limit = (distance_m / voxel_size_m) ** 2 + 1e-9
+    return grid[(grid**2).sum(axis=1) <= limit].astype(np.int64)
+
+
+def evaluate_cuboids(
+    prob: FloatArray, gt: BoolArray, config: CuboidConfig | None = None
+) -> CuboidMetrics:
+    """All per-cuboid metrics of reconstruction ``prob`` (X, Y, Z) float against ``gt`` (X, Y, Z) bool."""
+    tracker = QualityTracker(gt, config)
+    tracker.update(prob)
+    return tracker.metrics()
+
+
+def q_paper(cov: FloatArray, l1: FloatArray, config: CuboidConfig) -> float:
+    """Eq. (3) of ``002_…``: mean of min–max normalised cov (U_occ) and 1 − normalised L1 (U_empty).
+
+    ``cov`` (n,) and ``l1`` (m,) float. A set whose values are all equal falls back to the
+    fixed-bound terms of Q (see the module docstring). Empty input gives NaN.
+    """
+    cov, l1 = np.asarray(cov, float), np.asarray(l1, float)
+    if cov.size + l1.size == 0:
+        return float("nan")
+    return float(
+        (_min_max(cov, cov).sum() + (1 - _min_max(l1, _fixed_l1(l1, config))).sum())
+        / (cov.size + l1.size)
+    )
+
+
+def empty_quality(l1: FloatArray, config: CuboidConfig) -> FloatArray:
+    """Q's term of an empty cuboid: ``clip((0.5·n³ − L1) / ((0.5 − clamp_min_p)·n³), 0, 1)``."""
+    span = config.unobserved_l1 - config.best_l1
+    return np.clip((config.unobserved_l1 - np.asarray(l1, float)) / span, 0.0, 1.0)
+
+
+def _fixed_l1(l1: FloatArray, config: CuboidConfig) -> FloatArray:
+    """Normalised L1 (0 = best) with fixed bounds: the fallback of eq. (3) for a constant set."""
+    return 1 - empty_quality(l1, config)
+
+
+def _min_max(values: FloatArray, fallback: FloatArray) -> FloatArray:
+    if values.size == 0:
+        return values
+    low, high = values.min(), values.max()
+    return fallback if high == low else (values - low) / (high - low)
+
+
+class QualityTracker:
+    """Per-cuboid metrics of a changing reconstruction, recomputed only where it changed.
+
+    Built once from the ground truth ``gt`` (X, Y, Z) bool; :meth:`update` takes the current
+    probability grid and the cuboids a scan touched, recomputes only those and returns the
+    :class:`QualitySummary`. Each cuboid's values come from the same kernel whether it is
+    recomputed alone or in a full pass, and the means are taken over the whole per-cuboid arrays,
+    so an incremental result equals a full recomputation exactly.
+    """
+
+    def __init__(self, gt: BoolArray, config: CuboidConfig | None = None):
+        self.config = config or CuboidConfig()
+        gt = np.asarray(gt)
+        if gt.dtype != bool:
+            raise MetricInputError(f"ground truth must be a bool grid, got {gt.dtype}")
+        n = self.config.cuboid_voxels
+        self.grid_shape = gt.shape
+        self.shape = cuboid_shape(gt.shape, n)
+        self.u_occ = occupied_cuboids(gt, n)
+        self._gt_start, self._gt_voxels = _ground_truth_lists(gt, n)
+        self._offsets, self._offset_d2 = _stencil(self.config)
+        self._thresholds = np.array([p for p, _ in self.config.cov_settings])
+        self._radius2 = np.array(
+            [(d / self.config.voxel_size_m) ** 2 + 1e-9 for _, d in self.config.cov_settings]
+        )
+        size = int(np.prod(self.shape))
+        self._observed = np.zeros(size, bool)
+        self._l1 = np.full(size, self.config.unobserved_l1)
+        self._cov = np.zeros((len(self.config.cov_settings), size))
+
+    def update(self, prob: FloatArray, touched: IntArray | None = None) -> QualitySummary:
+        """Recompute the cuboids in ``touched`` (all when None) from ``prob`` and summarise.
+
+        ``prob`` (X, Y, Z) float probabilities (unknown = 0.5) of the ground truth's shape;
+        ``touched``: (m, 3) int cuboid indices or (m,) flat (C-order) cuboid indices.
+        """
+        prob = np.asarray(prob)
+        check_grids(prob, np.broadcast_to(False, self.grid_shape), self.config.cuboid_voxels)
+        flat = self._flat_indices(touched)
+        same = prob.dtype.type  # thresholds in the grid's precision: float32 0.4 is "<= 0.4"
+        _update_cuboids(
+            prob, flat, self.config.cuboid_voxels, self.shape, same(self.config.unknown_low),
+            same(self.config.unknown_high), self._gt_start, self._gt_voxels, self._offsets,
+            self._offset_d2, self._thresholds.astype(prob.dtype), self._radius2, self._observed,
+            self._l1, self._cov,
+        )  # fmt: skip
+        return self.summary()
+
+    def summary(self) -> QualitySummary:
+        """The current :class:`QualitySummary` (no recomputation)."""
+        return self.metrics().summary()
+
+    def metrics(self) -> CuboidMetrics:
+        """The current per-cuboid arrays as :class:`CuboidMetrics` (copies)."""
+        cov = self._cov.reshape(-1, *self.shape).copy()
+        cov[:, ~self.u_occ] = np.nan
+        l1 = self._l1.reshape(self.shape).copy()
+        quality = np.where(self.u_occ, cov[self.config.q_setting], empty_quality(l1, self.config))
+        observed = self._observed.reshape(self.shape).copy()
+        return CuboidMetrics(self.u_occ.copy(), observed, cov, l1, quality, self.config)
+
+    def _flat_indices(self, touched: IntArray | None) -> IntArray:
+        size = int(np.prod(self.shape))
+        if touched is None:
+            return np.arange(size, dtype=np.int64)
+        touched = np.asarray(touched, dtype=np.int64)
+        if touched.ndim == 2 and touched.shape[1] == 3:
+            inside = np.all((touched >= 0) & (touched < np.asarray(self.shape)), axis=1)
+            touched = np.ravel_multi_index(tuple(touched[inside].T), self.shape)
+        elif touched.ndim != 1:
+            raise MetricInputError(
+                f"touched cuboids must be (m, 3) or (m,) indices, got {touched.shape}"
+            )
+        touched = touched[(touched >= 0) & (touched < size)]
+        return np.unique(touched)
+
+
+def _stencil(config: CuboidConfig) -> tuple[IntArray, FloatArray]:
+    """Offsets of the widest coverage setting, sorted by distance, and their squared lengths (voxels²)."""
+    widest = max(d for _, d in config.cov_settings)
+    offsets = coverage_offsets(widest, config.voxel_size_m)
+    d2 = (offsets**2).sum(axis=1).astype(float)
+    order = np.argsort(d2, kind="stable")
+    return offsets[order], d2[order]
+
+
+def _ground_truth_lists(gt: BoolArray, n: int) -> tuple[IntArray, IntArray]:
+    """CSR lists of occupied ground-truth voxels per cuboid: ``start`` (cuboids + 1,), ``voxels`` (k, 3)."""
+    cx, cy, cz = cuboid_shape(gt.shape, n)
+    voxels = np.argwhere(gt).astype(np.int64)
+    owner = (
+        np.ravel_multi_index(tuple((voxels // n).T), (cx, cy, cz))
+        if len(voxels)
+        else np.zeros(0, np.int64)
+    )
+    order = np.argsort(owner, kind="stable")
+    counts = np.bincount(owner, minlength=cx * cy * cz)
+    start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    return start, voxels[order]
+
+
+@njit(cache=True, parallel=True)
+def _update_cuboids(prob, flat, n, shape, low, high, gt_start, gt_voxels, offsets, offset_d2,
+                    thresholds, radius2, observed, l1, cov):  # fmt: skip
+    """Recompute observed, L1 and the coverages of the flat cuboid indices ``flat``, in place."""
+    for t in prange(flat.shape[0]):
+        f = flat[t]
+        ci = f // (shape[1] * shape[2])
+        cj = (f // shape[2]) % shape[1]
+        ck = f % shape[2]
+        seen, total = _scan_cuboid(prob, ci * n, cj * n, ck * n, n, low, high)
+        observed[f] = seen
+        if not seen:
+            l1[f] = 0.5 * n * n * n
+            cov[:, f] = 0.0
+            continue
+        l1[f] = total
+        _coverage(prob, ci * n, cj * n, ck * n, n, gt_voxels[gt_start[f] : gt_start[f + 1]],
+                  offsets, offset_d2, thresholds, radius2, cov[:, f])  # fmt: skip
+
+
+@njit(cache=True, fastmath={"reassoc", "nsz"})
+def _scan_cuboid(prob, i0, j0, k0, n, low, high):
+    """(observed, Σp in float64) of the cuboid with low voxel corner (i0, j0, k0).
+
+    The sum may be reassociated (vectorised): it is still a pure function of the cuboid, so a
+    cuboid recomputed alone gives the same bits as in a full pass.
+    """
+    total = 0.0
+    lowest = np.inf
+    highest = -np.inf
+    for i in range(i0, i0 + n):
+        for j in range(j0, j0 + n):
+            for k in range(k0, k0 + n):
+                p = prob[i, j, k]
+                total += p
+                lowest = min(lowest, p)
+                highest = max(highest, p)
+    return lowest <= low or highest >= high, total
+
+
+@njit(cache=True)
+def _coverage(prob, i0, j0, k0, n, voxels, offsets, offset_d2, thresholds, radius2, out):
+    """Fill ``out`` (s,) with the coverage of each setting for the ground-truth ``voxels`` (k, 3).
+
+    Offsets are sorted by length, so the search of a voxel stops once every setting has a match.
+    """
+    settings = thresholds.shape[0]
+    every = (1 << settings) - 1
+    out[:] = 0.0
+    for v in range(voxels.shape[0]):
+        found = 0
+        for o in range(offsets.shape[0]):
+            i = voxels[v, 0] + offsets[o, 0]
+            j = voxels[v, 1] + offsets[o, 1]
+            k = voxels[v, 2] + offsets[o, 2]
+            if i < i0 or i >= i0 + n or j < j0 or j >= j0 + n or k < k0 or k >= k0 + n:
+                continue
+            p = prob[i, j, k]
+            for s in range(settings):
+                if offset_d2[o] <= radius2[s] and p > thresholds[s]:
+                    found |= 1 << s
+            if found == every:
+                break
+        for s in range(settings):
+            if found & (1 << s):
+                out[s] += 1.0
+    if voxels.shape[0] > 0:
+        for s in range(settings):
+            out[s] /= voxels.shape[0]

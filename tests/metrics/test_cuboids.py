@@ -1,0 +1,139 @@
+"""Cuboid metrics against hand-computed values (SPEC §5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nbv_gym.metrics import MetricInputError
+from nbv_gym.metrics.cuboids import (
+    CuboidConfig,
+    QualityTracker,
+    coverage_offsets,
+    evaluate_cuboids,
+    q_paper,
+)
+
+
+def _grid(shape=(10, 10, 10), value=0.3):
+    return np.full(shape, value, np.float32)
+
+
+@pytest.mark.parametrize(("d", "count"), [(0.05, 1), (0.10, 7), (0.15, 19)])
+def test_coverage_stencil_counts_offsets_within_distance(d, count):
+    assert len(coverage_offsets(d, 0.1)) == count  # 1 + 6 faces + 12 edges
+
+
+def test_perfect_reconstruction_scores_one():
+    rng = np.random.default_rng(0)
+    gt = np.zeros((20, 20, 10), bool)
+    gt[rng.integers(0, 20, 30), rng.integers(0, 20, 30), rng.integers(0, 10, 30)] = True
+    gt[10:, 10:] = False  # one empty cuboid
+    prob = np.where(gt, np.float32(0.97), np.float32(0.12))
+    summary = evaluate_cuboids(prob, gt).summary()
+    assert summary.cov == (1.0, 1.0, 1.0, 1.0)
+    assert summary.q == 1.0 and summary.q_paper == 1.0
+    assert summary.l1 == pytest.approx(120.0, rel=1e-6)
+
+
+def test_all_unknown_scores_the_fixed_values():
+    gt = np.zeros((20, 10, 10), bool)
+    gt[3, 3, 3] = True
+    metrics = evaluate_cuboids(_grid(gt.shape, 0.5), gt)
+    assert not metrics.observed.any()
+    assert metrics.cov[:, 0, 0, 0].tolist() == [0.0] * 4
+    assert metrics.l1.ravel().tolist() == [500.0, 500.0]
+    summary = metrics.summary()
+    assert summary.q == 0.0 and summary.q_paper == 0.0
+
+
+def test_band_is_open_so_edge_values_count_as_observed():
+    gt = np.zeros((10, 10, 10), bool)
+    prob = _grid(value=0.5)
+    prob[0, 0, 0] = 0.4  # p_miss after one miss: observed (0.4 is outside the open band)
+    assert evaluate_cuboids(prob, gt).observed.all()
+    prob[0, 0, 0] = 0.41
+    assert not evaluate_cuboids(prob, gt).observed.any()
+
+
+def test_shifted_voxels_change_coverage_as_computed_by_hand():
+    gt = np.zeros((10, 10, 10), bool)
+    gt[5, 5, 5] = gt[2, 2, 2] = True
+    prob = _grid()
+    prob[5, 5, 6] = 0.9  # one voxel away (0.10 m) from the first
+    prob[2, 3, 3] = 0.75  # √2 voxels away (0.141 m) from the second
+    cov = evaluate_cuboids(prob, gt).cov[:, 0, 0, 0]
+    # (0.8, 0.05): none; (0.8, 0.10): first only; (0.7, 0.10): first only; (0.7, 0.15): both
+    assert cov.tolist() == [0.0, 0.5, 0.5, 1.0]
+
+
+def test_coverage_search_stays_inside_the_cuboid():
+    gt = np.zeros((20, 10, 10), bool)
+    gt[9, 5, 5] = True
+    prob = _grid(gt.shape)
+    prob[10, 5, 5] = 0.95  # adjacent, but in the next cuboid
+    cov = evaluate_cuboids(prob, gt).cov[:, 0, 0, 0]
+    assert cov.tolist() == [0.0, 0.0, 0.0, 0.0]
+
+
+def test_l1_and_empty_quality_by_hand():
+    gt = np.zeros((10, 10, 10), bool)
+    metrics = evaluate_cuboids(_grid(value=0.31), gt)
+    assert metrics.l1[0, 0, 0] == pytest.approx(310.0, rel=1e-6)
+    assert metrics.quality[0, 0, 0] == pytest.approx((500 - 310) / 380, rel=1e-6)
+
+
+def test_q_paper_is_equation_3_with_min_max_normalisation():
+    config = CuboidConfig()
+    # cov normalised: 0, 0.5, 1; L1 normalised: 0, 0.5, 1 → 1 − that: 1, 0.5, 0; mean = 3 / 6
+    assert q_paper([0.2, 0.6, 1.0], [120.0, 310.0, 500.0], config) == pytest.approx(0.5)
+    # a constant set falls back to the fixed bounds of Q
+    assert q_paper([0.4, 0.4], [], config) == pytest.approx(0.4)
+
+
+def test_q_is_the_mean_over_all_cuboids():
+    gt = np.zeros((20, 10, 10), bool)
+    gt[2, 2, 2] = gt[3, 3, 3] = True  # cuboid 0 occupied, cuboid 1 empty
+    prob = _grid(gt.shape, 0.12)
+    prob[2, 2, 2] = 0.9  # cov(0.7, 0.15) = 1/2
+    summary = evaluate_cuboids(prob, gt).summary()
+    empty_l1 = 0.12 * 1000
+    assert summary.q == pytest.approx((0.5 + (500 - empty_l1) / 380) / 2, rel=1e-6)
+
+
+def test_incremental_updates_equal_a_full_recomputation_exactly():
+    rng = np.random.default_rng(3)
+    gt = rng.random((40, 30, 20)) < 0.02
+    gt[:10] = False
+    prob = np.full(gt.shape, 0.5, np.float32)
+    tracker = QualityTracker(gt)
+    tracker.update(prob)
+    for _ in range(5):
+        cuboids = np.unique(rng.integers(0, [4, 3, 2], (5, 3)), axis=0)
+        for ci, cj, ck in cuboids:
+            block = prob[ci * 10 : ci * 10 + 10, cj * 10 : cj * 10 + 10, ck * 10 : ck * 10 + 10]
+            block[...] = rng.choice([0.12, 0.3, 0.75, 0.85, 0.97], block.shape)
+        incremental = tracker.update(prob, cuboids)
+    full = QualityTracker(gt).update(prob)
+    assert incremental == full  # every field, bit for bit
+    assert 0 < full.q < 1
+
+
+def test_mismatched_grids_raise_clear_errors():
+    with pytest.raises(MetricInputError, match="differs from ground-truth shape"):
+        evaluate_cuboids(_grid((10, 10, 10)), np.zeros((20, 10, 10), bool))
+    with pytest.raises(MetricInputError, match="whole number of 10-voxel cuboids"):
+        evaluate_cuboids(_grid((15, 10, 10)), np.zeros((15, 10, 10), bool))
+    with pytest.raises(MetricInputError, match="bool grid"):
+        QualityTracker(np.zeros((10, 10, 10), np.uint8))
+
+
+def test_other_cuboid_sizes_work():
+    gt = np.zeros((8, 8, 4), bool)
+    gt[1, 1, 1] = True
+    prob = np.full(gt.shape, 0.12, np.float32)
+    prob[1, 1, 2] = 0.9
+    metrics = evaluate_cuboids(prob, gt, CuboidConfig(cuboid_voxels=4))
+    assert metrics.u_occ.shape == (2, 2, 1)
+    assert metrics.cov[:, 0, 0, 0].tolist() == [0.0, 1.0, 1.0, 1.0]
+    assert metrics.l1[1, 1, 0] == pytest.approx(0.12 * 64, rel=1e-6)

@@ -12,7 +12,8 @@
   ``border_margin_m`` inside the window (dilations with the same disc rule, by
   ``frontier_unknown_dilation_m`` and ``frontier_occupied_margin_m``).
 - Path lengths: 8-connected Dijkstra over eroded free cells (steps ``cell_m`` and ``√2·cell_m``
-  between cell centres) from the robot's cell, which is always a start even if not eroded free.
+  between cell centres) from the robot's cell; the cells of the robot's own footprint (its disc)
+  are passable too, so that noise in its own scan cannot trap it.
 - Goals: the x, y cells of G (row-major: index = i·ny + j, i along x). A point belongs to the nav
   cell that holds it under the half-open grid convention, so a goal's centre (a corner of four nav
   cells) belongs to the cell up and right of it; path lengths between goal centres are then exact
@@ -145,9 +146,24 @@ class NavigationLayer:
         """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free cells."""
         self.robot_xy = np.asarray(robot_xy, dtype=float).reshape(2)
         start = self.grid.index([[*self.robot_xy, self.grid.origin[2]]])[0, :2]
-        self.distance = path_lengths(
-            self.eroded_free, (int(start[0]), int(start[1])), self.grid.res
-        )
+        start = (int(start[0]), int(start[1]))
+        passable = self.eroded_free | self._footprint(start)
+        self.distance = path_lengths(passable, start, self.grid.res)
+
+    def _footprint(self, cell: tuple[int, int]) -> BoolArray:
+        """(nx, ny) bool: the cells the robot's disc covers when it stands in ``cell``. The robot
+        may always leave its own footprint (noise in its own scan can mark it occupied)."""
+        footprint = np.zeros(self.grid.shape[:2], bool)
+        k = self._robot_disc.shape[0] // 2
+        nx, ny = footprint.shape
+        i0, j0 = max(cell[0] - k, 0), max(cell[1] - k, 0)
+        i1, j1 = min(cell[0] + k + 1, nx), min(cell[1] + k + 1, ny)
+        if i0 < i1 and j0 < j1:
+            disc_ = self._robot_disc[
+                i0 - cell[0] + k : i1 - cell[0] + k, j0 - cell[1] + k : j1 - cell[1] + k
+            ]
+            footprint[i0:i1, j0:j1] = disc_
+        return footprint
 
     # ------------------------------------------------------------------ read-out
 

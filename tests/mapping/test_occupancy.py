@@ -192,3 +192,18 @@ def test_projection_onto_columns_uses_the_voxel_centres_in_each_band():
     assert occupied.ravel().tolist() == [False, False, False, True, False]
     with pytest.raises(ConfigError, match="aligned"):
         occupancy.project(GridSpec((0.05, 0.0, 0.0), 0.5, (2, 1, 1)), (0, 1), (0, 1))
+
+
+def test_logodds_blocks_equal_the_dense_read_out():
+    occupancy = OccupancyMap.from_config(MapConfig(), 20.0)
+    points = np.random.default_rng(0).uniform([-10, -10, 0], [10, 10, 3], (3000, 3))
+    occupancy.insert(np.array([0.3, 0.2, 0.42]), points)
+    coarse = GridSpec.from_bounds((-30, -30, 0.2), (30, 30, 6.2), 1.0)
+    fine = GridSpec.from_bounds((-30, -30, 0.2), (30, 30, 6.2), 0.1)
+    cells = np.array([[25, 27, 1], [30, 30, 0], [0, 0, 5], [59, 59, 5], [22, 31, 2]])
+    dense = occupancy.logodds_in(fine)
+    blocks = occupancy.logodds_blocks(coarse, cells)
+    for (i, j, k), block in zip(cells, blocks, strict=True):
+        expected = dense[10 * i : 10 * i + 10, 10 * j : 10 * j + 10, 10 * k : 10 * k + 10]
+        np.testing.assert_array_equal(block, expected)
+    assert np.isfinite(blocks).any() and np.isnan(blocks).any()

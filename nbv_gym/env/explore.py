@@ -1,0 +1,195 @@
+"""``nbv_gym/Explore-v0``: the Gymnasium environment around the :class:`~nbv_gym.simulator.Simulator`.
+
+Action: ``Discrete(3600)``, a goal cell of the 60 × 60 grid (row-major); ``action_masks()`` and
+``info["action_mask"]`` give the valid goals, and an invalid goal raises
+:class:`~nbv_gym.simulator.InvalidActionError`. ``action_space.sample()`` draws a valid goal.
+Observation: see :mod:`nbv_gym.env.observation`. Reward: ΔQ (minus the optional path penalty).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from nbv_gym.config import check, from_dict
+from nbv_gym.env import observation
+from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
+from nbv_gym.simulator import EpisodeConfig, Simulator, SimulatorConfig, StepOutcome
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Configuration of ``Explore-v0``: the simulator and the optional observation layers
+    (names in :data:`nbv_gym.env.layers.OPTIONAL_LAYERS`, e.g. the NBV gain layers)."""
+
+    simulator: SimulatorConfig = field(default_factory=SimulatorConfig)
+    observation_layers: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
+        check(
+            not unknown,
+            "observation_layers",
+            f"unknown layer(s) {unknown}; optional layers: {list(OPTIONAL_LAYERS)}",
+        )
+
+
+class GoalSpace(spaces.Discrete):
+    """``Discrete(n)`` whose ``sample()`` (without a mask) draws a goal that is valid now.
+
+    Among the valid goals it draws from those that were also valid right after the episode's
+    reset, when there are any: Gymnasium's env checker samples an action in one state and steps
+    it after a new seeded reset, which only works for goals valid at every start.
+    """
+
+    def __init__(self, n: int, seed: int | None = None):
+        super().__init__(n, seed=seed)
+        self._mask_source: Callable[[], np.ndarray | None] | None = None
+
+    def bind(self, mask_source: Callable[[], np.ndarray | None]) -> None:
+        """Use ``mask_source()`` as the default mask of :meth:`sample`."""
+        self._mask_source = mask_source
+
+    def sample(self, mask=None, probability=None):
+        if mask is None and probability is None and self._mask_source is not None:
+            current = self._mask_source()
+            if current is not None and current.any():
+                mask = current.astype(np.int8)
+        return super().sample(mask=mask, probability=probability)
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_mask_source"] = None  # the space travels alone (e.g. to another process)
+        return state
+
+
+class ExploreEnv(gymnasium.Env):
+    """Explore a world with a teleporting lidar robot; reward = improvement of map quality Q.
+
+    Args:
+        render_mode: None or "rgb_array".
+        config: an :class:`EnvConfig` (or a dict of its fields).
+        world, noise, max_steps, observation_layers: shortcuts overriding the config's
+            ``simulator.world``, ``simulator.noise``, ``simulator.episode.max_steps`` and
+            ``observation_layers``.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        config: EnvConfig | Mapping[str, Any] | None = None,
+        *,
+        world: str | None = None,
+        noise: int | None = None,
+        max_steps: int | None = None,
+        observation_layers: tuple[str, ...] | list[str] | None = None,
+    ):
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise gymnasium.error.Error(
+                f"render_mode must be None or 'rgb_array', got {render_mode!r}"
+            )
+        self.config = _resolve(config, world, noise, max_steps, observation_layers)
+        self.render_mode = render_mode
+        self.sim = Simulator(self.config.simulator)
+        self.optional = OptionalLayers(self.sim, self.config.observation_layers)
+        self.action_space = GoalSpace(self.sim.n_goals)
+        self.action_space.bind(self._current_mask)
+        self.observation_space = observation.observation_space(
+            self.sim.n_goals, self.optional.names
+        )
+        self._last: StepOutcome | None = None
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        episode_seed = int(self.np_random.integers(2**63 - 1))
+        self._last = self.sim.reset(episode_seed)
+        self._start_mask = self.sim.goal_mask()
+        self.optional.reset()
+        return self._observation(), self._info()
+
+    def step(self, action):
+        outcome = self.sim.step(int(action) if np.ndim(action) == 0 else action)
+        self._last = outcome
+        return (
+            self._observation(),
+            float(outcome.reward),
+            outcome.terminated,
+            outcome.truncated,
+            self._info(),
+        )
+
+    def action_masks(self) -> np.ndarray:
+        """(3600,) bool: the valid goals (sb3-contrib's MaskablePPO reads this)."""
+        return self.sim.goal_mask()
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            from nbv_gym.env.render import render_rgb
+
+            return render_rgb(self.sim)
+        return None
+
+    def _current_mask(self) -> np.ndarray | None:
+        """Valid goals, narrowed to those also valid at the episode's start if any are."""
+        if self.sim.state is None:
+            return None
+        mask = self.sim.goal_mask()
+        stable = mask & self._start_mask
+        return stable if stable.any() else mask
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        layers = observation.base_layers(self.sim)
+        layers.update(self.optional.compute(self._last))
+        layers["state"] = observation.robot_state(self.sim)
+        return layers
+
+    def _info(self) -> dict[str, Any]:
+        outcome, sim = self._last, self.sim
+        quality = outcome.quality
+        return {
+            "action_mask": sim.goal_mask(),
+            "discovered": outcome.discovered,
+            "q": quality.q,
+            "q_paper": quality.q_paper,
+            "cov": quality.cov,
+            "l1": quality.l1,
+            "delta_q": outcome.delta_q,
+            "path_penalty": outcome.delta_q - outcome.reward,
+            "step_path_length_m": outcome.path_length_m,
+            "path_length_m": sim.path_length_m,
+            "steps": sim.steps,
+            "true_pose": np.array(_pose_tuple(outcome.scan.true_pose)),
+            "estimated_pose": np.array(_pose_tuple(outcome.scan.pose)),
+            "end_reason": outcome.reason,
+        }
+
+
+def _pose_tuple(pose) -> tuple[float, float, float, float]:
+    return pose.x, pose.y, pose.z, pose.yaw
+
+
+def _resolve(config, world, noise, max_steps, observation_layers) -> EnvConfig:
+    """The :class:`EnvConfig` of ``config`` with the keyword shortcuts applied."""
+    if config is None:
+        config = EnvConfig()
+    elif isinstance(config, Mapping):
+        config = from_dict(EnvConfig, config)
+    simulator = config.simulator
+    if world is not None:
+        simulator = replace(simulator, world=str(world))
+    if noise is not None:
+        simulator = replace(simulator, noise=noise)
+    if max_steps is not None:
+        simulator = replace(simulator, episode=replace(simulator.episode, max_steps=max_steps))
+    layers = config.observation_layers if observation_layers is None else tuple(observation_layers)
+    return EnvConfig(simulator, layers)
+
+
+__all__ = ["EnvConfig", "EpisodeConfig", "ExploreEnv", "GoalSpace"]

@@ -1,0 +1,126 @@
+"""Run one policy for one episode and keep what a run folder needs (``nbv-gym run``)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from nbv_gym.config import to_dict
+from nbv_gym.env.explore import EnvConfig, ExploreEnv
+from nbv_gym.policies import Policy, required_layers
+
+STEP_COLUMNS = ("step", "goal", "discovered", "q", "q_paper", "reward", "path_length_m", "time_s")
+
+
+@dataclass
+class EpisodeResult:
+    """The per-step table (one dict per row, :data:`STEP_COLUMNS`, step 0 = the first scan) and
+    the final figures of an episode."""
+
+    steps: list[dict[str, float]] = field(default_factory=list)
+    end_reason: str = ""
+    wall_time_s: float = 0.0
+
+    @property
+    def final(self) -> dict[str, float]:
+        """The last row of the step table."""
+        return self.steps[-1]
+
+
+def make_env(config: EnvConfig, policy: Policy, render: bool = False) -> ExploreEnv:
+    """An environment that computes the optional layers ``policy`` declares."""
+    layers = tuple(dict.fromkeys((*config.observation_layers, *required_layers(policy))))
+    return ExploreEnv("rgb_array" if render else None, EnvConfig(config.simulator, layers))
+
+
+def run_episode(
+    env: ExploreEnv,
+    policy: Policy,
+    seed: int,
+    on_step: Callable[[dict[str, float], ExploreEnv], None] | None = None,
+) -> EpisodeResult:
+    """Run ``policy`` in ``env`` from ``reset(seed=seed)`` until the episode ends; ``on_step`` is
+    called with each new row (the first scan included)."""
+    start = time.perf_counter()
+    observation, info = env.reset(seed=seed)
+    policy.reset(seed)
+    result = EpisodeResult()
+    row = _row(0, -1, info, 0.0, start)
+    done = False
+    while True:
+        result.steps.append(row)
+        if on_step:
+            on_step(row, env)
+        if done:
+            break
+        goal = int(policy.act(observation, info))
+        observation, reward, terminated, truncated, info = env.step(goal)
+        row = _row(len(result.steps), goal, info, reward, start)
+        done = terminated or truncated
+    result.end_reason = info["end_reason"]
+    result.wall_time_s = time.perf_counter() - start
+    return result
+
+
+def _row(step: int, goal: int, info: dict[str, Any], reward: float, start: float) -> dict:
+    return {
+        "step": step,
+        "goal": goal,
+        "discovered": float(info["discovered"]),
+        "q": float(info["q"]),
+        "q_paper": float(info["q_paper"]),
+        "reward": float(reward),
+        "path_length_m": float(info["path_length_m"]),
+        "time_s": time.perf_counter() - start,
+    }
+
+
+def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: dict) -> None:
+    """Write the step table, the summary, the final map and statistics to ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "steps.csv", "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=STEP_COLUMNS)
+        writer.writeheader()
+        writer.writerows(result.steps)
+    summary = {
+        **meta,
+        "config": to_dict(env.config),
+        "final": result.final,
+        "n_steps": len(result.steps) - 1,
+        "end_reason": result.end_reason,
+        "wall_time_s": result.wall_time_s,
+        "quality": asdict(env.sim.summary),
+        "versions": versions(),
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_plain))
+    env.sim.state.occupancy.save(out / "map.npz")
+    env.sim.state.statistics.save(out / "statistics.npz")
+
+
+def versions() -> dict[str, str]:
+    """Versions of Python and the libraries a result depends on."""
+    packages = ("nbv-gym", "numpy", "scipy", "numba", "embreex", "trimesh", "gymnasium", "pot")
+    found = {"python": platform.python_version()}
+    for name in packages:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    return found
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")

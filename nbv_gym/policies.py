@@ -1,0 +1,82 @@
+"""The policy interface shared by the baselines, trained agents and user code (SPEC §6).
+
+A policy is any object with ``reset(seed)`` and ``act(observation, info) -> int`` (a goal index)
+and, optionally, ``observation_layers``: the names of the optional observation layers it needs
+(for example the NBV gain layers), which the environment then computes. Policies are named in a
+registry (the seven baselines) or as ``module:Class`` for user code.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Mapping
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from nbv_gym.errors import NbvGymError, UnknownNameError
+
+#: Registered policy names → ``module:Class`` of their implementation.
+POLICIES: dict[str, str] = {
+    "random-frontier": "baselines.frontier:RandomFrontier",
+    "closest-frontier": "baselines.frontier:ClosestFrontier",
+    "random-free": "baselines.frontier:RandomFree",
+    "nbv-nobs": "baselines.nbv:NbvNobs",
+    "nbv-rmin": "baselines.nbv:NbvRmin",
+    "nbv-nomega": "baselines.nbv:NbvNomega",
+    "nbv-sigma": "baselines.nbv:NbvSigma",
+}
+
+
+class PolicyError(NbvGymError):
+    """A policy could not be loaded, or does not implement the interface."""
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """What the environment, ``nbv-gym run`` and ``nbv-gym sweep`` need from a policy."""
+
+    #: Names of the optional observation layers this policy reads (may be empty).
+    observation_layers: tuple[str, ...]
+
+    def reset(self, seed: int | None = None) -> None:
+        """Start a new episode; all randomness of the policy derives from ``seed``."""
+
+    def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
+        """The goal index (row-major over the 60 × 60 goal grid) to go to next; must be a valid
+        goal (``info["action_mask"]``)."""
+
+
+def load_policy(name: str, **kwargs: Any) -> Policy:
+    """A new policy from a registered name (``"closest-frontier"``) or ``"module:Class"``;
+    ``kwargs`` go to the class's constructor."""
+    target = POLICIES.get(name, name)
+    if ":" not in target:
+        raise UnknownNameError("policy", name, POLICIES)
+    policy = _import_class(target, name)(**kwargs)
+    missing = [m for m in ("reset", "act") if not callable(getattr(policy, m, None))]
+    if missing:
+        raise PolicyError(
+            f"Policy {name!r} does not implement the policy interface: it lacks "
+            f"{' and '.join(missing)}(). A policy needs reset(seed) and act(observation, info)."
+        )
+    return policy
+
+
+def required_layers(policy: object) -> tuple[str, ...]:
+    """The optional observation layers ``policy`` declares (none if it declares nothing)."""
+    return tuple(getattr(policy, "observation_layers", ()))
+
+
+def _import_class(target: str, name: str) -> type:
+    module_name, _, class_name = target.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise PolicyError(f"Policy {name!r}: cannot import module {module_name!r}: {error}") from None
+    try:
+        return getattr(module, class_name)
+    except AttributeError:
+        raise PolicyError(
+            f"Policy {name!r}: module {module_name!r} has no attribute {class_name!r}."
+        ) from None

@@ -1,0 +1,219 @@
+"""The exploration simulator, free of Gymnasium: teleport → scan → update map, statistics and
+navigation → ΔQ (SPEC §2–5). The environment (:mod:`nbv_gym.env`) and the CLI wrap it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from nbv_gym.arrays import FloatArray
+from nbv_gym.config import check
+from nbv_gym.errors import NbvGymError
+from nbv_gym.grid import GridSpec
+from nbv_gym.lidar import Lidar, LidarConfig, Scan
+from nbv_gym.mapping import ExplorationState, MappingConfig
+from nbv_gym.metrics.cuboids import CuboidConfig, QualitySummary, QualityTracker
+from nbv_gym.pose import NOISE_LEVELS, Pose
+from nbv_gym.worlds import World, load_world
+
+
+class InvalidActionError(NbvGymError, ValueError):
+    """A goal that is not a valid action now; the message says why."""
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """When an episode ends and how steps are rewarded.
+
+    An episode terminates when the discovered fraction reaches ``discovered_target`` and is
+    truncated after ``max_steps`` steps or when no goal is valid. Reward = ΔQ −
+    ``path_penalty_per_m`` · path length of the step. The robot starts at ``start_xy_m``
+    heading ``start_yaw_rad``.
+    """
+
+    max_steps: int = 100
+    discovered_target: float = 0.70
+    path_penalty_per_m: float = 0.0
+    start_xy_m: tuple[float, float] = (0.0, 0.0)
+    start_yaw_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
+        check(0 < self.discovered_target <= 1, "discovered_target", "must be in (0, 1]")
+        check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
+
+
+@dataclass(frozen=True)
+class SimulatorConfig:
+    """Everything one exploration episode depends on, besides the seed and the policy.
+
+    ``world`` is a benchmark world name or a spec file path; ``noise`` the localisation-noise
+    level 0, 1 or 2 (SPEC §2).
+    """
+
+    world: str = "pp1-trees"
+    noise: int = 1
+    lidar: LidarConfig = field(default_factory=LidarConfig)
+    mapping: MappingConfig = field(default_factory=MappingConfig)
+    quality: CuboidConfig = field(default_factory=CuboidConfig)
+    episode: EpisodeConfig = field(default_factory=EpisodeConfig)
+
+    def __post_init__(self) -> None:
+        check(self.noise in NOISE_LEVELS, "noise", f"expected 0, 1 or 2, got {self.noise!r}")
+
+
+@dataclass(frozen=True)
+class StepOutcome:
+    """What a reset or a step produced.
+
+    ``quality`` is the map quality after the scan; ``reward`` = ``delta_q`` − path penalty;
+    ``path_length_m`` the length of this step's path; ``terminated``/``truncated`` as in
+    Gymnasium, with ``reason`` saying why the episode ended ("" while it runs).
+    """
+
+    scan: Scan
+    quality: QualitySummary
+    delta_q: float
+    reward: float
+    path_length_m: float
+    discovered: float
+    terminated: bool
+    truncated: bool
+    reason: str
+
+
+class Simulator:
+    """One robot exploring one world. ``reset(seed)`` starts an episode with the first scan;
+    ``step(goal)`` teleports to a goal cell, scans and updates everything."""
+
+    def __init__(self, config: SimulatorConfig | None = None, world: World | None = None):
+        self.config = config or SimulatorConfig()
+        self.world = world or load_world(self.config.world)
+        self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
+        self.goal_grid = self.config.mapping.statistics.grid()
+        self.voxel_grid = _refine(self.goal_grid, self.config.quality.voxel_size_m)
+        self._ground_truth = self.world.ground_truth.occupancy(self.voxel_grid)
+        self.goal_centres = _goal_centres(self.goal_grid)
+        self.state: ExplorationState | None = None
+
+    @property
+    def n_goals(self) -> int:
+        """Number of goals (actions): the x, y cells of G."""
+        return len(self.goal_centres)
+
+    def reset(self, seed: int | None = None) -> StepOutcome:
+        """Start an episode at the start pose and take the first scan; randomness from ``seed``."""
+        episode = self.config.episode
+        self.rng = np.random.default_rng(seed)
+        self.state = ExplorationState.from_config(self.config.mapping)
+        self.quality = QualityTracker(self._ground_truth, self.config.quality)
+        self._probability = np.full(self.voxel_grid.shape, 0.5, np.float32)
+        self.pose = Pose(*episode.start_xy_m, 0.0, episode.start_yaw_rad)
+        self.trajectory = [self.pose]
+        self.steps, self.path_length_m = 0, 0.0
+        self.summary = self.quality.update(self._probability)
+        return self._observe(path_length_m=0.0)
+
+    def step(self, goal: int) -> StepOutcome:
+        """Teleport to ``goal`` (index into the goal grid), scan, update; raises
+        :class:`InvalidActionError` for a goal that is not valid now."""
+        if self.state is None:
+            raise NbvGymError("call reset() before step()")
+        self._check_goal(goal)
+        path_length = float(self.state.navigation.goal_path_length()[goal])
+        x, y = self.goal_centres[goal]
+        yaw = float(np.arctan2(y - self.pose.y, x - self.pose.x))
+        self.pose = Pose(float(x), float(y), 0.0, yaw)
+        self.trajectory.append(self.pose)
+        self.steps += 1
+        self.path_length_m += path_length
+        return self._observe(path_length)
+
+    def goal_mask(self) -> np.ndarray:
+        """(n_goals,) bool: the goals that are valid actions now."""
+        return self.state.navigation.goal_mask()
+
+    def _observe(self, path_length_m: float) -> StepOutcome:
+        """Scan from the current pose, update map, statistics, navigation and quality."""
+        scan = self.lidar.scan(self.pose, self.rng)
+        update = self.state.apply(scan, robot_xy=np.array([self.pose.x, self.pose.y]))
+        before = self.summary
+        self.summary = self._update_quality(update.touched_cells)
+        delta_q = self.summary.q - before.q
+        reward = delta_q - self.config.episode.path_penalty_per_m * path_length_m
+        discovered = self.state.navigation.discovered_fraction
+        terminated, truncated, reason = self._end(discovered)
+        return StepOutcome(
+            scan,
+            self.summary,
+            delta_q,
+            reward,
+            path_length_m,
+            discovered,
+            terminated,
+            truncated,
+            reason,
+        )
+
+    def _update_quality(self, touched: np.ndarray) -> QualitySummary:
+        """Refresh the probabilities of the touched cuboids only, then their metrics."""
+        if len(touched):
+            cells = self.goal_grid.unravel(touched)
+            logodds = self.state.occupancy.logodds_blocks(self.goal_grid, cells)
+            blocks = np.where(
+                np.isnan(logodds), np.float32(0.5), 1.0 / (1.0 + np.exp(-np.nan_to_num(logodds)))
+            )
+            n = self.config.quality.cuboid_voxels
+            nx, ny, nz = self.goal_grid.shape
+            view = self._probability.reshape(nx, n, ny, n, nz, n)
+            view[cells[:, 0], :, cells[:, 1], :, cells[:, 2], :] = blocks
+        return self.quality.update(self._probability, touched)
+
+    def _end(self, discovered: float) -> tuple[bool, bool, str]:
+        episode = self.config.episode
+        if discovered >= episode.discovered_target:
+            return True, False, f"discovered {discovered:.1%} ≥ {episode.discovered_target:.0%}"
+        if self.steps >= episode.max_steps:
+            return False, True, f"reached max_steps = {episode.max_steps}"
+        if not self.goal_mask().any():
+            return False, True, "no valid goal is reachable"
+        return False, False, ""
+
+    def _check_goal(self, goal: int) -> None:
+        if not isinstance(goal, (int, np.integer)) or not 0 <= goal < self.n_goals:
+            raise InvalidActionError(
+                f"A goal is an integer index in [0, {self.n_goals}), got {goal!r}."
+            )
+        if self.goal_mask()[goal]:
+            return
+        x, y = self.goal_centres[goal]
+        raise InvalidActionError(
+            f"Goal {int(goal)} at ({x:.1f}, {y:.1f}) m is not valid now: "
+            f"{self._invalid_reason(int(goal))}. Choose a goal where info['action_mask'] is True."
+        )
+
+    def _invalid_reason(self, goal: int) -> str:
+        navigation = self.state.navigation
+        if goal == navigation.robot_goal:
+            return "it is the robot's own cell"
+        x, y = self.goal_centres[goal]
+        (x0, y0), (x1, y1) = self.goal_grid.low[:2], self.goal_grid.high[:2]
+        margin = self.config.mapping.navigation.border_margin_m
+        if min(x - x0, x1 - x, y - y0, y1 - y) < margin:
+            return f"it lies within {margin} m of the window border"
+        if not np.isfinite(navigation.goal_path_length()[goal]):
+            return "it is not known free space reachable from the robot"
+        return "it is not a valid goal"
+
+
+def _refine(grid: GridSpec, res: float) -> GridSpec:
+    """``grid``'s box at cell size ``res``."""
+    return GridSpec.from_bounds(tuple(grid.low), tuple(grid.high), res)
+
+
+def _goal_centres(grid: GridSpec) -> FloatArray:
+    """(nx · ny, 2) float centres of ``grid``'s x, y cells, row-major (index i · ny + j)."""
+    nx, ny = grid.shape[:2]
+    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+    return grid.low[:2] + (np.column_stack([i.ravel(), j.ravel()]) + 0.5) * grid.res

@@ -1,0 +1,90 @@
+"""The policy interface, the registry and the three frontier baselines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from baselines.frontier import ClosestFrontier, RandomFree, RandomFrontier
+from nbv_gym.errors import UnknownNameError
+from nbv_gym.policies import POLICIES, Policy, PolicyError, load_policy
+
+
+def crafted(frontier_goals: list[int], valid_goals: list[int], robot_xy=(0.0, 0.0)):
+    """An observation and info with the given frontier and valid goals on the 60 × 60 grid."""
+    centres = -29.5 + np.indices((60, 60)).reshape(2, -1).T.astype(float)
+    distance = np.hypot(*(centres - robot_xy).T) / np.hypot(60, 60)
+    frontier = np.zeros(3600, np.float32)
+    frontier[frontier_goals] = 1
+    mask = np.zeros(3600, bool)
+    mask[valid_goals] = True
+    observation = {"frontier": frontier.reshape(60, 60), "distance": distance.reshape(60, 60)}
+    return observation, {"action_mask": mask}
+
+
+def goal(x: float, y: float) -> int:
+    return int((x + 30) // 1 * 60 + (y + 30) // 1)
+
+
+def test_closest_frontier_picks_the_nearest_frontier_goal():
+    near, far, nearer_but_invalid = goal(3.5, -4.5), goal(10.5, 0.5), goal(1.5, 1.5)
+    observation, info = crafted([far, near, nearer_but_invalid], [far, near, goal(0.5, 2.5)])
+    policy = ClosestFrontier()
+    policy.reset(0)
+    assert policy.act(observation, info) == near  # √(3.5² + 4.5²) = 5.7 m < 10.5 m
+
+
+def test_frontier_policies_fall_back_to_random_free_without_frontiers():
+    valid = [goal(5.5, 5.5), goal(-7.5, 2.5)]
+    observation, info = crafted([], valid)
+    for policy in (ClosestFrontier(), RandomFrontier()):
+        policy.reset(3)
+        assert {policy.act(observation, info) for _ in range(20)} <= set(valid)
+
+
+def test_random_frontier_is_uniform_over_frontier_goals_and_seeded():
+    frontier = [goal(3.5, 3.5), goal(-3.5, 3.5), goal(0.5, -9.5)]
+    observation, info = crafted(frontier, frontier + [goal(12.5, 12.5)])
+    policy = RandomFrontier()
+    policy.reset(11)
+    picks = [policy.act(observation, info) for _ in range(3000)]
+    counts = np.array([picks.count(g) for g in frontier])
+    assert counts.sum() == 3000 and np.all(np.abs(counts - 1000) < 4 * np.sqrt(1000 * 2 / 3))
+    policy.reset(11)
+    assert [policy.act(observation, info) for _ in range(3000)] == picks
+
+
+def test_random_free_picks_only_valid_goals():
+    valid = list(range(100, 3600, 37))
+    observation, info = crafted([], valid)
+    policy = RandomFree()
+    policy.reset(0)
+    assert {policy.act(observation, info) for _ in range(500)} <= set(valid)
+
+
+@pytest.mark.parametrize("name", ["random-frontier", "closest-frontier", "random-free"])
+def test_registered_baselines_satisfy_the_protocol(name):
+    policy = load_policy(name)
+    assert isinstance(policy, Policy)
+    assert name in POLICIES
+
+
+def test_unknown_policy_lists_the_valid_ones():
+    with pytest.raises(UnknownNameError, match=r"Did you mean 'closest-frontier'.*random-free"):
+        load_policy("closest-fronteer")
+
+
+def test_user_policy_errors_say_what_is_wrong(tmp_path, monkeypatch):
+    (tmp_path / "my_policies.py").write_text(
+        "class NoAct:\n    def reset(self, seed=None):\n        pass\n"
+        "class Good:\n    observation_layers = ()\n    def reset(self, seed=None):\n        pass\n"
+        "    def act(self, observation, info):\n        return 7\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert load_policy("my_policies:Good").act({}, {}) == 7
+    with pytest.raises(PolicyError, match=r"lacks act\(\)"):
+        load_policy("my_policies:NoAct")
+    with pytest.raises(PolicyError, match="has no attribute 'Missing'"):
+        load_policy("my_policies:Missing")
+    with pytest.raises(PolicyError, match="cannot import module 'not_a_module_xyz'"):
+        load_policy("not_a_module_xyz:Policy")

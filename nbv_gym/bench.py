@@ -21,6 +21,8 @@ SUITES: dict[str, str] = {
     "foundation": "nbv_gym.bench",
     "mapping": "nbv_gym.mapping.bench",
     "metrics": "nbv_gym.metrics.bench",
+    "nbv": "nbv_gym.nbv.bench",
+    "env": "nbv_gym.env.bench",
 }
 
 BENCH_WORLD = "pp1-trees"

@@ -39,7 +39,9 @@ class EpisodeResult:
 def make_env(config: EnvConfig, policy: Policy, render: bool = False) -> ExploreEnv:
     """An environment that computes the optional layers ``policy`` declares."""
     layers = tuple(dict.fromkeys((*config.observation_layers, *required_layers(policy))))
-    return ExploreEnv("rgb_array" if render else None, EnvConfig(config.simulator, layers))
+    return ExploreEnv(
+        "rgb_array" if render else None, EnvConfig(config.simulator, layers, config.nbv)
+    )
 
 
 def run_episode(

@@ -69,10 +69,12 @@ class StepOutcome:
 
     ``quality`` is the map quality after the scan; ``reward`` = ``delta_q`` − path penalty;
     ``path_length_m`` the length of this step's path; ``terminated``/``truncated`` as in
-    Gymnasium, with ``reason`` saying why the episode ended ("" while it runs).
+    Gymnasium, with ``reason`` saying why the episode ended ("" while it runs); ``touched``
+    (nx, ny, nz) bool the cells of G whose map voxels the scan changed.
     """
 
     scan: Scan
+    touched: np.ndarray
     quality: QualitySummary
     delta_q: float
     reward: float
@@ -146,6 +148,7 @@ class Simulator:
         terminated, truncated, reason = self._end(discovered)
         return StepOutcome(
             scan,
+            update.touched,
             self.summary,
             delta_q,
             reward,

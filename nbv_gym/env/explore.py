@@ -19,16 +19,19 @@ from gymnasium import spaces
 from nbv_gym.config import check, from_dict
 from nbv_gym.env import observation
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
+from nbv_gym.nbv import NbvConfig
 from nbv_gym.simulator import EpisodeConfig, Simulator, SimulatorConfig, StepOutcome
 
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """Configuration of ``Explore-v0``: the simulator and the optional observation layers
-    (names in :data:`nbv_gym.env.layers.OPTIONAL_LAYERS`, e.g. the NBV gain layers)."""
+    """Configuration of ``Explore-v0``: the simulator, the optional observation layers (names in
+    :data:`nbv_gym.env.layers.OPTIONAL_LAYERS`, e.g. the NBV gain layers) and the NBV gain
+    prediction behind them."""
 
     simulator: SimulatorConfig = field(default_factory=SimulatorConfig)
     observation_layers: tuple[str, ...] = ()
+    nbv: NbvConfig = field(default_factory=NbvConfig)
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
@@ -98,11 +101,11 @@ class ExploreEnv(gymnasium.Env):
         self.config = _resolve(config, world, noise, max_steps, observation_layers)
         self.render_mode = render_mode
         self.sim = Simulator(self.config.simulator)
-        self.optional = OptionalLayers(self.sim, self.config.observation_layers)
+        self.optional = OptionalLayers(self.sim, self.config.observation_layers, self.config.nbv)
         self.action_space = GoalSpace(self.sim.n_goals)
         self.action_space.bind(self._current_mask)
         self.observation_space = observation.observation_space(
-            self.sim.n_goals, self.optional.names
+            self.sim.n_goals, self.optional.bounds()
         )
         self._last: StepOutcome | None = None
 
@@ -189,7 +192,7 @@ def _resolve(config, world, noise, max_steps, observation_layers) -> EnvConfig:
     if max_steps is not None:
         simulator = replace(simulator, episode=replace(simulator.episode, max_steps=max_steps))
     layers = config.observation_layers if observation_layers is None else tuple(observation_layers)
-    return EnvConfig(simulator, layers)
+    return EnvConfig(simulator, layers, config.nbv)
 
 
 __all__ = ["EnvConfig", "EpisodeConfig", "ExploreEnv", "GoalSpace"]

@@ -1,25 +1,61 @@
-"""Optional observation layers: computed only when a policy or user asks for them."""
+"""Optional observation layers, computed only when a policy or user asks for them: the predicted
+NBV gains of the four viewpoint statistics and the candidate mask (SPEC §4, issue: NBV)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from nbv_gym.nbv import CANDIDATES_LAYER, GAIN_LAYERS, GainPredictor, NbvConfig
 from nbv_gym.simulator import Simulator, StepOutcome
 
-#: Names of the optional layers and what they hold.
-OPTIONAL_LAYERS: dict[str, str] = {}
+#: Names of the optional layers and what they hold (flat (3600,) float32, goal order).
+OPTIONAL_LAYERS: dict[str, str] = {
+    "gain_nobs": "predicted E[I] of n_obs from each candidate goal, 0 elsewhere",
+    "gain_rmin": "predicted E[I] of r_min from each candidate goal, 0 elsewhere",
+    "gain_nomega": "predicted E[I] of n_Ω (swept sectors credited) from each candidate, 0 elsewhere",
+    "gain_sigma": "predicted E[I] of σ_θ from each candidate goal, 0 elsewhere",
+    CANDIDATES_LAYER: "1 on the NBV candidates: valid goals within the search range",
+}
+assert set(GAIN_LAYERS) < set(OPTIONAL_LAYERS)
 
 
 class OptionalLayers:
-    """Computes the requested optional layers after each scan."""
+    """Computes the requested optional layers after each scan (any gain layer brings the
+    candidate mask along). The occlusion grid behind the
+    gains is kept up to date after every scan (only the touched cells), so a request costs one
+    prediction for all requested gain layers together."""
 
-    def __init__(self, sim: Simulator, names: tuple[str, ...]):
+    def __init__(self, sim: Simulator, names: tuple[str, ...], config: NbvConfig):
         self.sim = sim
-        self.names = tuple(dict.fromkeys(names))
+        wants_gains = any(name in GAIN_LAYERS for name in names)
+        self.names = tuple(dict.fromkeys((*names, *([CANDIDATES_LAYER] if wants_gains else []))))
+        voxel_res = sim.config.mapping.map.resolution_m
+        self.config = config
+        self.predictor = GainPredictor(sim.goal_grid, config, voxel_res) if self.names else None
+
+    def bounds(self) -> dict[str, float]:
+        """Upper bound of each requested layer: a gain sums at most one cell gain (≤ ln(1 /
+        floor) or the never-observed r_min) over every cell of G; the mean at most one."""
+        per_cell = max(np.log(1.0 / self.config.gain_floor), self.config.unobserved_r_min_m)
+        cells = self.sim.goal_grid.size if self.config.aggregate == "sum" else 1
+        return {
+            name: 1.0 if name == CANDIDATES_LAYER else float(per_cell * cells)
+            for name in self.names
+        }
 
     def reset(self) -> None:
-        """Forget per-episode state."""
+        """Forget per-episode state (the occlusion grid of the previous map)."""
+        if self.predictor is not None:
+            self.predictor.reset()
 
-    def compute(self, outcome: StepOutcome | None) -> dict[str, np.ndarray]:
-        """The requested layers for the simulator's current state."""
-        return {}
+    def compute(self, outcome: StepOutcome) -> dict[str, np.ndarray]:
+        """The requested layers for the simulator's state after ``outcome``'s scan."""
+        if self.predictor is None:
+            return {}
+        state = self.sim.state
+        self.predictor.observe(state.occupancy, outcome.touched)
+        robot_xy = np.array([self.sim.pose.x, self.sim.pose.y])
+        layers = self.predictor.predict(
+            state.statistics, robot_xy, state.navigation.goal_mask(), self.names
+        )
+        return {name: layers[name].ravel() for name in self.names}

@@ -36,10 +36,12 @@ BASE_LAYERS = ("known", "free", "occupied", "frontier", "valid", "cost", "distan
 STATE_SIZE = 6
 
 
-def observation_space(n_goals: int, optional: tuple[str, ...]) -> spaces.Dict:
-    """The Dict space of the base layers, the ``optional`` layers and the robot state."""
-    layer = spaces.Box(0.0, 1.0, (n_goals,), np.float32)
-    entries = {name: layer for name in (*BASE_LAYERS, *optional)}
+def observation_space(n_goals: int, optional: dict[str, float]) -> spaces.Dict:
+    """The Dict space of the base layers, the ``optional`` layers (name → upper bound) and the
+    robot state."""
+    entries = {name: spaces.Box(0.0, 1.0, (n_goals,), np.float32) for name in BASE_LAYERS}
+    for name, high in optional.items():
+        entries[name] = spaces.Box(0.0, high, (n_goals,), np.float32)
     entries["state"] = spaces.Box(-2.0, 2.0, (STATE_SIZE,), np.float32)
     return spaces.Dict(entries)
 

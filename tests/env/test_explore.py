@@ -195,3 +195,46 @@ def test_unknown_observation_layer_is_refused():
 
     with pytest.raises(ConfigError, match="observation_layers"):
         ExploreEnv(world=WORLD, observation_layers=("gain_banana",))
+
+
+def test_gain_layers_are_zero_outside_the_candidates():
+    from nbv_gym.nbv import CANDIDATES_LAYER, GAIN_LAYERS
+
+    environment = ExploreEnv(world=WORLD, max_steps=3, observation_layers=GAIN_LAYERS)
+    observation, info = environment.reset(seed=0)
+    candidates = observation[CANDIDATES_LAYER] > 0
+    assert candidates.any() and not (candidates & ~info["action_mask"]).any()
+    for name in GAIN_LAYERS:
+        assert observation[name].shape == (3600,)
+        assert np.all(observation[name][~candidates] == 0)
+    # at the start most of the world is unobserved: every candidate sees new cells
+    assert np.all(observation["gain_nobs"][candidates] > 0)
+    assert environment.observation_space.contains(observation)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "random-frontier",
+        "closest-frontier",
+        "random-free",
+        "nbv-nobs",
+        "nbv-rmin",
+        "nbv-nomega",
+        "nbv-sigma",
+    ],
+)
+def test_every_policy_picks_only_valid_goals(name):
+    from nbv_gym.episode import make_env
+    from nbv_gym.policies import load_policy
+
+    policy = load_policy(name)
+    environment = make_env(ExploreEnv(world=WORLD, max_steps=4).config, policy)
+    observation, info = environment.reset(seed=1)
+    policy.reset(1)
+    for _ in range(4):
+        goal = policy.act(observation, info)
+        assert info["action_mask"][goal], f"{name} chose invalid goal {goal}"
+        observation, _, terminated, truncated, info = environment.step(goal)
+        if terminated or truncated:
+            break

@@ -1,0 +1,28 @@
+"""Statistic-based Next-Best-View (SPEC §4, paper §III-C): occlusion, sight lines, predicted gains."""
+
+from nbv_gym.nbv.config import NbvConfig
+from nbv_gym.nbv.gains import (
+    GAIN_LAYERS,
+    candidate_mask,
+    goal_centres_xy,
+    predict_gains,
+    predict_gains_arrays,
+    swept_sectors,
+)
+from nbv_gym.nbv.occlusion import OcclusionGrid
+from nbv_gym.nbv.predictor import CANDIDATES_LAYER, GainPredictor
+from nbv_gym.nbv.visibility import visible_cells
+
+__all__ = [
+    "CANDIDATES_LAYER",
+    "GAIN_LAYERS",
+    "GainPredictor",
+    "NbvConfig",
+    "OcclusionGrid",
+    "candidate_mask",
+    "goal_centres_xy",
+    "predict_gains",
+    "predict_gains_arrays",
+    "swept_sectors",
+    "visible_cells",
+]

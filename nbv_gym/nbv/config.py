@@ -1,0 +1,83 @@
+"""The config of the statistic-based Next-Best-View (SPEC §4, paper §III-C, the authors' code)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+from nbv_gym.config import check
+
+
+@dataclass(frozen=True)
+class NbvConfig:
+    """Candidates, predicted observation and gains of the statistic-based NBV.
+
+    Attributes:
+        search_range_m: candidates are valid goals whose centre lies within this straight-line
+            distance (≤) of the robot, metres.
+        sensor_range_m: a cell is predicted to be observed from a candidate only if the range of its
+            centre is below this, metres.
+        min_range_m: … and at least this (the statistics grid's √3 · cell: the cells the statistics
+            update would not observe either), metres.
+        sensor_height_m: a candidate's sensor stands at its goal cell's centre (x, y) and this
+            height, metres.
+        occluding_probability: a cell of G occludes iff it holds a map voxel with p ≥ this.
+        gain_floor: the floor f of the logarithmic gains (``ln(â / max(b, f))``).
+        unobserved_r_min_m: r_min of a never-observed cell, metres.
+        aggregate: E[I(a_T)] is the ``"sum"`` (authors' code) or the ``"mean"`` (paper) of the gains
+            of the visible cells.
+        alpha: weight of the travel cost in the utility E[I] − α · cost.
+        uniform_tolerance: gains are near-uniform over the candidates when max / min − 1 ≤ this.
+        n_sectors: azimuth sectors of n_Ω (the statistics grid's).
+    """
+
+    search_range_m: float = 20.0
+    sensor_range_m: float = 20.0
+    min_range_m: float = math.sqrt(3.0)
+    sensor_height_m: float = 0.42
+    occluding_probability: float = 0.8
+    gain_floor: float = 1e-3
+    unobserved_r_min_m: float = 100.0
+    aggregate: Literal["sum", "mean"] = "sum"
+    alpha: float = 2.0
+    uniform_tolerance: float = 0.05
+    n_sectors: int = 32
+
+    def __post_init__(self) -> None:
+        for name in ("search_range_m", "sensor_range_m", "gain_floor", "unobserved_r_min_m"):
+            value = getattr(self, name)
+            check(math.isfinite(value) and value > 0, name, f"must be > 0, got {value}")
+        check(
+            0 <= self.min_range_m < self.sensor_range_m,
+            "min_range_m",
+            f"need 0 ≤ min_range_m < sensor_range_m ({self.sensor_range_m}), got {self.min_range_m}",
+        )
+        check(
+            math.isfinite(self.sensor_height_m),
+            "sensor_height_m",
+            f"must be finite, got {self.sensor_height_m}",
+        )
+        check(
+            0 < self.occluding_probability < 1,
+            "occluding_probability",
+            f"must be in (0, 1), got {self.occluding_probability}",
+        )
+        check(
+            self.aggregate in ("sum", "mean"),
+            "aggregate",
+            f"expected 'sum' or 'mean', got {self.aggregate!r}",
+        )
+        check(self.alpha >= 0, "alpha", f"must be ≥ 0, got {self.alpha}")
+        check(
+            self.uniform_tolerance >= 0,
+            "uniform_tolerance",
+            f"must be ≥ 0, got {self.uniform_tolerance}",
+        )
+        check(1 <= self.n_sectors <= 32, "n_sectors", f"must be in 1..32, got {self.n_sectors}")
+        check(
+            self.unobserved_r_min_m >= self.sensor_range_m,
+            "unobserved_r_min_m",
+            f"must be ≥ sensor_range_m ({self.sensor_range_m}) so a first observation always "
+            f"gains, got {self.unobserved_r_min_m}",
+        )

@@ -1,0 +1,100 @@
+"""Which cells of G occlude a candidate's view: those holding a map voxel with p ≥ 0.8 (SPEC §4).
+
+The mask is kept up to date incrementally: after a scan only the cells of G holding a voxel the scan
+changed (``ScanUpdate.touched``) are recomputed from the map.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nbv_gym.arrays import BoolArray
+from nbv_gym.errors import ConfigError, NbvGymError
+from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.occupancy import OccupancyMap, logit
+
+#: Cells of G whose voxels are read at once (4 kB of float32 each).
+CHUNK_CELLS = 4096
+
+
+class OcclusionGrid:
+    """(nx, ny, nz) bool mask over G: a cell occludes iff it holds a voxel with p ≥ the threshold.
+
+    Args:
+        grid: the statistics grid G (cells a whole number of voxels, aligned to the map).
+        voxel_res: the map's voxel size, metres.
+        occluding_probability: threshold p of an occluding voxel.
+    """
+
+    def __init__(self, grid: GridSpec, voxel_res: float = 0.1, occluding_probability: float = 0.8):
+        if not 0 < occluding_probability < 1:
+            raise ConfigError(
+                f"occluding_probability: must be in (0, 1), got {occluding_probability}"
+            )
+        factor = grid.res / voxel_res
+        if round(factor) < 1 or abs(factor - round(factor)) > 1e-6:
+            raise ConfigError(
+                f"G's {grid.res} m cells must be a whole number of {voxel_res} m voxels"
+            )
+        self.grid = grid
+        self.voxel_res = float(voxel_res)
+        self.factor = int(round(factor))
+        self.threshold_logodds = logit(occluding_probability)
+        self._mask = np.zeros(grid.shape, bool)
+
+    @property
+    def mask(self) -> np.ndarray:
+        """(nx, ny, nz) bool occluding cells (a read-only view; copy to keep it)."""
+        view = self._mask.view()
+        view.flags.writeable = False
+        return view
+
+    def reset(self) -> None:
+        """Forget everything (an empty map occludes nothing)."""
+        self._mask[:] = False
+
+    def update(self, occupancy_map: OccupancyMap, touched: BoolArray | None = None) -> int:
+        """Recompute the ``touched`` (nx, ny, nz) bool cells from ``occupancy_map`` (all cells when
+        None); returns the number of cells recomputed.
+
+        Reads only the touched cells' voxels (``OccupancyMap.logodds_blocks``) in chunks of
+        :data:`CHUNK_CELLS` cells, or, with a map that lacks that accessor, the voxels of each x slab
+        of G over the y, z bounding box of the slab's touched cells.
+        """
+        touched = np.ones(self.grid.shape, bool) if touched is None else np.asarray(touched, bool)
+        if touched.shape != self.grid.shape:
+            raise NbvGymError(f"touched must have G's shape {self.grid.shape}, got {touched.shape}")
+        if hasattr(occupancy_map, "logodds_blocks"):
+            cells = np.argwhere(touched)
+            for start in range(0, len(cells), CHUNK_CELLS):
+                self._update_cells(occupancy_map, cells[start : start + CHUNK_CELLS])
+        else:
+            for i in np.flatnonzero(touched.any(axis=(1, 2))):
+                self._update_slab(occupancy_map, int(i), touched[i])
+        return int(touched.sum())
+
+    def _update_cells(self, occupancy_map: OccupancyMap, cells: np.ndarray) -> None:
+        """Recompute the (k, 3) ``cells`` of G from their voxels."""
+        blocks = occupancy_map.logodds_blocks(self.grid, cells)
+        occluding = (blocks.reshape(len(cells), -1) >= self.threshold_logodds).any(axis=1)
+        self._mask[tuple(cells.T)] = occluding  # NaN (unknown) compares False: never occludes
+
+    def _update_slab(self, occupancy_map: OccupancyMap, i: int, touched: np.ndarray) -> None:
+        """Recompute the touched cells of the x slab ``i`` ((ny, nz) bool ``touched``)."""
+        j, k = np.nonzero(touched)
+        lo = np.array([i, j.min(), k.min()])
+        hi = np.array([i + 1, j.max() + 1, k.max() + 1])
+        voxels = occupancy_map.logodds_in(self._voxel_grid(lo, hi))
+        f = self.factor
+        shape = hi - lo
+        blocks = voxels.reshape(shape[0], f, shape[1], f, shape[2], f)
+        occluding = (blocks >= self.threshold_logodds).any(axis=(1, 3, 5))  # NaN (unknown): no
+        box = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
+        region = touched[lo[1] : hi[1], lo[2] : hi[2]][None]
+        self._mask[box] = np.where(region, occluding, self._mask[box])
+
+    def _voxel_grid(self, lo: np.ndarray, hi: np.ndarray) -> GridSpec:
+        """The voxel grid covering the cells ``lo ≤ (i, j, k) < hi`` of G."""
+        low = self.grid.low + lo * self.grid.res
+        shape = tuple(int(v) for v in (hi - lo) * self.factor)
+        return GridSpec(tuple(float(v) for v in low), self.voxel_res, shape)

@@ -110,11 +110,10 @@ class Simulator:
         self.rng = np.random.default_rng(seed)
         self.state = ExplorationState.from_config(self.config.mapping)
         self.quality = QualityTracker(self._ground_truth, self.config.quality)
-        self._probability = np.full(self.voxel_grid.shape, 0.5, np.float32)
         self.pose = Pose(*episode.start_xy_m, 0.0, episode.start_yaw_rad)
         self.trajectory = [self.pose]
         self.steps, self.path_length_m = 0, 0.0
-        self.summary = self.quality.update(self._probability)
+        self.summary = self.quality.summary()  # a new tracker: every cuboid unobserved
         return self._observe(path_length_m=0.0)
 
     def step(self, goal: int) -> StepOutcome:
@@ -160,18 +159,10 @@ class Simulator:
         )
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
-        """Refresh the probabilities of the touched cuboids only, then their metrics."""
-        if len(touched):
-            cells = self.goal_grid.unravel(touched)
-            logodds = self.state.occupancy.logodds_blocks(self.goal_grid, cells)
-            blocks = np.where(
-                np.isnan(logodds), np.float32(0.5), 1.0 / (1.0 + np.exp(-np.nan_to_num(logodds)))
-            )
-            n = self.config.quality.cuboid_voxels
-            nx, ny, nz = self.goal_grid.shape
-            view = self._probability.reshape(nx, n, ny, n, nz, n)
-            view[cells[:, 0], :, cells[:, 1], :, cells[:, 2], :] = blocks
-        return self.quality.update(self._probability, touched)
+        """Recompute the metrics of the touched cuboids only, from their map voxels."""
+        cells = self.goal_grid.unravel(touched)
+        blocks = self.state.occupancy.probability_blocks(self.goal_grid, cells)
+        return self.quality.update_blocks(touched, blocks)
 
     def _end(self, discovered: float) -> tuple[bool, bool, str]:
         episode = self.config.episode

@@ -266,13 +266,21 @@ class OccupancyMap:
         """(k, f, f, f) float32 log-odds (NaN = unknown, also outside the map) of the voxels of
         the (k, 3) ``cells`` of a coarse ``grid`` aligned to the map whose cells are ``f`` voxels
         on a side (G: f = 10). Reads only those voxels: the fast path for per-scan updates."""
+        return self._blocks(grid, cells, as_probability=False)
+
+    def probability_blocks(self, grid: GridSpec, cells: np.ndarray) -> np.ndarray:
+        """(k, f, f, f) float32 probabilities (0.5 where unknown) of the voxels of the (k, 3)
+        ``cells`` of a coarse aligned ``grid``, bit for bit as :meth:`probability` gives them."""
+        return self._blocks(grid, cells, as_probability=True)
+
+    def _blocks(self, grid: GridSpec, cells: np.ndarray, as_probability: bool) -> np.ndarray:
         factor = grid.res / self.grid.res
         if not _is_whole(factor):
             raise ConfigError(f"grid cells of {grid.res} m are not a whole number of voxels")
         offset = self._voxel_offset(GridSpec(grid.origin, self.grid.res, grid.shape))
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
         return _gather_blocks(
-            self._store, self._dims, offset, cells, int(round(factor)), TILE
+            self._store, self._dims, offset, cells, int(round(factor)), as_probability
         )
 
     def probability(self, grid: GridSpec) -> np.ndarray:
@@ -472,32 +480,52 @@ _PARAM_KEYS = ("p_hit", "p_miss", "p_clamp_min", "p_clamp_max", "p_occupied", "m
 
 
 @njit(cache=True)
-def _gather_blocks(store, dims, offset, cells, f, tile):
-    """(k, f, f, f) log-odds of ``cells`` (coarse indices) from the tiled ``store``."""
+def _gather_blocks(store, dims, offset, cells, f, as_probability):
+    """(k, f, f, f) log-odds — or probabilities if ``as_probability`` — of ``cells`` (coarse
+    indices) from the tiled ``store``, read layer by layer (the store is z-major)."""
+    tile = TILE  # a compile-time constant: the divisions below become shifts
     tiles_x, tiles_y, nx, ny, nz = dims
-    out = np.full((cells.shape[0], f, f, f), np.nan, np.float32)
+    layer = tiles_x * tiles_y * tile * tile
+    unknown = np.float32(0.5) if as_probability else np.float32(np.nan)
+    out = np.full((cells.shape[0], f, f, f), unknown, np.float32)
     for c in range(cells.shape[0]):
-        for a in range(f):
-            x = offset[0] + cells[c, 0] * f + a
-            if x < 0 or x >= nx:
-                continue
-            for b in range(f):
-                y = offset[1] + cells[c, 1] * f + b
-                if y < 0 or y >= ny:
-                    continue
-                column = ((x // tile) * tiles_y + y // tile) * tile * tile
-                column += (x % tile) * tile + y % tile
-                for d in range(f):
-                    z = offset[2] + cells[c, 2] * f + d
-                    if 0 <= z < nz:
-                        out[c, a, b, d] = store[z * tiles_x * tiles_y * tile * tile + column]
+        x0 = offset[0] + cells[c, 0] * f
+        y0 = offset[1] + cells[c, 1] * f
+        z0 = offset[2] + cells[c, 2] * f
+        for d in range(max(0, -z0), min(f, nz - z0)):
+            for a in range(max(0, -x0), min(f, nx - x0)):
+                x = x0 + a
+                row = (z0 + d) * layer + (x // tile) * tiles_y * tile * tile + (x % tile) * tile
+                for b in range(max(0, -y0), min(f, ny - y0)):
+                    y = y0 + b
+                    value = store[row + (y // tile) * tile * tile + y % tile]
+                    if not as_probability:
+                        out[c, a, b, d] = value
+                    elif not np.isnan(value):
+                        out[c, a, b, d] = _sigmoid_one(value)
     return out
 
 
 def _probability(logodds: np.ndarray) -> np.ndarray:
     """float32 probability of float32 log-odds, 0.5 for NaN (unknown)."""
-    p = 1.0 / (1.0 + np.exp(-logodds.astype(np.float32)))
-    return np.where(np.isnan(p), np.float32(0.5), p).astype(np.float32)
+    logodds = np.ascontiguousarray(logodds, dtype=np.float32)
+    return _sigmoid(logodds.ravel()).reshape(logodds.shape)
+
+
+@njit(cache=True)
+def _sigmoid(logodds):
+    """(n,) float32 probabilities of (n,) float32 log-odds; 0.5 for NaN."""
+    out = np.empty(logodds.shape[0], np.float32)
+    for i in range(logodds.shape[0]):
+        value = logodds[i]
+        out[i] = 0.5 if np.isnan(value) else _sigmoid_one(value)
+    return out
+
+
+@njit(cache=True)
+def _sigmoid_one(logodds):
+    """float32 1 / (1 + e^−l) of one known log-odds, computed in float64 and rounded once."""
+    return np.float32(1.0 / (1.0 + math.exp(-np.float64(logodds))))
 
 
 def _at_least(logodds: np.ndarray, threshold: np.float32) -> np.ndarray:

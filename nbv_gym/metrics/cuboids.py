@@ -275,14 +275,35 @@ class QualityTracker:
         prob = np.asarray(prob)
         check_grids(prob, np.broadcast_to(False, self.grid_shape), self.config.cuboid_voxels)
         flat = self._flat_indices(touched)
-        same = prob.dtype.type  # thresholds in the grid's precision: float32 0.4 is "<= 0.4"
-        _update_cuboids(
-            prob, flat, self.config.cuboid_voxels, self.shape, same(self.config.unknown_low),
-            same(self.config.unknown_high), self._gt_start, self._gt_voxels, self._offsets,
-            self._offset_d2, self._thresholds.astype(prob.dtype), self._radius2, self._observed,
-            self._l1, self._cov,
-        )  # fmt: skip
+        n = self.config.cuboid_voxels
+        blocks = cuboid_view(prob, n)[np.unravel_index(flat, self.shape)]
+        self._recompute(flat, np.ascontiguousarray(blocks))
         return self.summary()
+
+    def update_blocks(self, touched: IntArray, blocks: FloatArray) -> QualitySummary:
+        """Recompute the (m,) flat cuboid indices ``touched`` from their (m, n, n, n)
+        probability ``blocks`` and summarise: the fast path after a scan, which never needs the
+        whole grid. Gives the same bits as :meth:`update` on a grid holding these blocks."""
+        touched = np.asarray(touched, dtype=np.int64)
+        n = self.config.cuboid_voxels
+        if blocks.shape != (len(touched), n, n, n):
+            raise MetricInputError(
+                f"expected ({len(touched)}, {n}, {n}, {n}) probability blocks, got {blocks.shape}"
+            )
+        if len(touched) and (touched.min() < 0 or touched.max() >= self.u_occ.size):
+            raise MetricInputError(f"cuboid indices must lie in [0, {self.u_occ.size})")
+        self._recompute(touched, np.ascontiguousarray(blocks))
+        return self.summary()
+
+    def _recompute(self, flat: IntArray, blocks: FloatArray) -> None:
+        """Recompute the cuboids ``flat`` from their probability ``blocks``, in place."""
+        same = blocks.dtype.type  # thresholds in the grid's precision: float32 0.4 is "<= 0.4"
+        _update_cuboids(
+            blocks, flat, self.config.cuboid_voxels, self.shape, same(self.config.unknown_low),
+            same(self.config.unknown_high), self._gt_start, self._gt_voxels, self._offsets,
+            self._offset_d2, self._thresholds.astype(blocks.dtype), self._radius2,
+            self._observed, self._l1, self._cov,
+        )  # fmt: skip
 
     def summary(self) -> QualitySummary:
         """The current :class:`QualitySummary` (no recomputation)."""
@@ -338,23 +359,26 @@ def _ground_truth_lists(gt: BoolArray, n: int) -> tuple[IntArray, IntArray]:
 
 
 @njit(cache=True, parallel=True)
-def _update_cuboids(prob, flat, n, shape, low, high, gt_start, gt_voxels, offsets, offset_d2,
+def _update_cuboids(blocks, flat, n, shape, low, high, gt_start, gt_voxels, offsets, offset_d2,
                     thresholds, radius2, observed, l1, cov):  # fmt: skip
-    """Recompute observed, L1 and the coverages of the flat cuboid indices ``flat``, in place."""
+    """Recompute observed, L1 and the coverages of the flat cuboid indices ``flat`` from their
+    (m, n, n, n) probability ``blocks``, in place."""
     for t in prange(flat.shape[0]):
         f = flat[t]
-        ci = f // (shape[1] * shape[2])
-        cj = (f // shape[2]) % shape[1]
-        ck = f % shape[2]
-        seen, total = _scan_cuboid(prob, ci * n, cj * n, ck * n, n, low, high)
+        block = blocks[t]
+        seen, total = _scan_cuboid(block, 0, 0, 0, n, low, high)
         observed[f] = seen
         if not seen:
             l1[f] = 0.5 * n * n * n
             cov[:, f] = 0.0
             continue
         l1[f] = total
-        _coverage(prob, ci * n, cj * n, ck * n, n, gt_voxels[gt_start[f] : gt_start[f + 1]],
-                  offsets, offset_d2, thresholds, radius2, cov[:, f])  # fmt: skip
+        corner = np.empty(3, np.int64)
+        corner[0] = f // (shape[1] * shape[2]) * n
+        corner[1] = (f // shape[2]) % shape[1] * n
+        corner[2] = f % shape[2] * n
+        _coverage(block, n, gt_voxels[gt_start[f] : gt_start[f + 1]] - corner, offsets,
+                  offset_d2, thresholds, radius2, cov[:, f])  # fmt: skip
 
 
 @njit(cache=True, fastmath={"reassoc", "nsz"})
@@ -378,8 +402,9 @@ def _scan_cuboid(prob, i0, j0, k0, n, low, high):
 
 
 @njit(cache=True)
-def _coverage(prob, i0, j0, k0, n, voxels, offsets, offset_d2, thresholds, radius2, out):
-    """Fill ``out`` (s,) with the coverage of each setting for the ground-truth ``voxels`` (k, 3).
+def _coverage(block, n, voxels, offsets, offset_d2, thresholds, radius2, out):
+    """Fill ``out`` (s,) with the coverage of each setting for the ground-truth ``voxels`` (k, 3),
+    given relative to the (n, n, n) probability ``block`` of their cuboid.
 
     Offsets are sorted by length, so the search of a voxel stops once every setting has a match.
     """
@@ -392,9 +417,9 @@ def _coverage(prob, i0, j0, k0, n, voxels, offsets, offset_d2, thresholds, radiu
             i = voxels[v, 0] + offsets[o, 0]
             j = voxels[v, 1] + offsets[o, 1]
             k = voxels[v, 2] + offsets[o, 2]
-            if i < i0 or i >= i0 + n or j < j0 or j >= j0 + n or k < k0 or k >= k0 + n:
+            if i < 0 or i >= n or j < 0 or j >= n or k < 0 or k >= n:
                 continue
-            p = prob[i, j, k]
+            p = block[i, j, k]
             for s in range(settings):
                 if offset_d2[o] <= radius2[s] and p > thresholds[s]:
                     found |= 1 << s

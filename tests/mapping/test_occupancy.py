@@ -207,3 +207,20 @@ def test_logodds_blocks_equal_the_dense_read_out():
         expected = dense[10 * i : 10 * i + 10, 10 * j : 10 * j + 10, 10 * k : 10 * k + 10]
         np.testing.assert_array_equal(block, expected)
     assert np.isfinite(blocks).any() and np.isnan(blocks).any()
+
+
+def test_probability_blocks_equal_the_probability_grid():
+    occupancy = OccupancyMap.from_config(MapConfig(), 20.0)
+    points = np.random.default_rng(1).uniform([-8, -8, 0], [8, 8, 3], (2000, 3))
+    occupancy.insert(np.array([0.1, 0.2, 0.42]), points)
+    coarse = GridSpec.from_bounds((-30, -30, 0.2), (30, 30, 6.2), 1.0)
+    fine = GridSpec.from_bounds((-30, -30, 0.2), (30, 30, 6.2), 0.1)
+    cells = np.array([[28, 29, 0], [31, 30, 1], [2, 3, 4]])
+    dense = occupancy.probability(fine)
+    blocks = occupancy.probability_blocks(coarse, cells)
+    assert blocks.dtype == np.float32
+    for (i, j, k), block in zip(cells, blocks, strict=True):
+        expected = dense[10 * i : 10 * i + 10, 10 * j : 10 * j + 10, 10 * k : 10 * k + 10]
+        np.testing.assert_array_equal(block, expected)
+    assert np.all(blocks[2] == 0.5)  # never observed
+    assert set(np.unique(blocks[0])) >= {np.float32(0.5), np.float32(0.4)}

@@ -137,3 +137,22 @@ def test_other_cuboid_sizes_work():
     assert metrics.u_occ.shape == (2, 2, 1)
     assert metrics.cov[:, 0, 0, 0].tolist() == [0.0, 1.0, 1.0, 1.0]
     assert metrics.l1[1, 1, 0] == pytest.approx(0.12 * 64, rel=1e-6)
+
+
+def test_update_blocks_equals_update_on_the_whole_grid():
+    rng = np.random.default_rng(5)
+    gt = np.zeros((20, 20, 10), bool)
+    gt[:10, :10] = rng.random((10, 10, 10)) < 0.05  # one occupied cuboid, three empty ones
+    prob = np.where(rng.random(gt.shape) < 0.5, 0.5, rng.random(gt.shape)).astype(np.float32)
+    full = QualityTracker(gt)
+    full.update(prob)
+    by_blocks = QualityTracker(gt)
+    touched = np.array([0, 3, 5, 7])
+    blocks = np.stack([prob[i * 10 : i * 10 + 10, j * 10 : j * 10 + 10, :] for i in (0, 1)
+                       for j in (0, 1)])[[0, 1, 2, 3]]  # fmt: skip
+    # cuboid grid (2, 2, 1): flat index i·2 + j; recompute all four through blocks
+    summary = by_blocks.update_blocks(np.arange(4), blocks)
+    assert summary == full.summary() and summary.n_occ == 1 and summary.n_empty == 3
+    np.testing.assert_array_equal(by_blocks.metrics().l1, full.metrics().l1)
+    with pytest.raises(MetricInputError, match="probability blocks"):
+        by_blocks.update_blocks(touched, blocks[:2])

@@ -63,6 +63,30 @@ class GridSpec:
         """(n, 3) float centres in metres of (n, 3) cell indices."""
         return self.low + (np.asarray(index, float) + 0.5) * self.res
 
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The grid as arrays ``origin``, ``res``, ``shape`` (for ``.npz`` files)."""
+        return {
+            "origin": np.asarray(self.origin, float),
+            "res": np.float64(self.res),
+            "shape": np.asarray(self.shape, np.int64),
+        }
+
+    @classmethod
+    def from_arrays(cls, data) -> GridSpec:
+        """The grid stored by :meth:`to_arrays` in ``data`` (a mapping such as an open ``.npz``)."""
+        return cls(
+            tuple(float(v) for v in data["origin"]),
+            float(data["res"]),
+            tuple(int(v) for v in data["shape"]),
+        )
+
+    def xy_centres(self) -> FloatArray:
+        """(nx · ny, 2) float centres in metres of the x, y cells, row-major (cell (i, j) at
+        row i · ny + j): the goals, when this is the statistics grid G."""
+        nx, ny = self.shape[:2]
+        i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+        return self.low[:2] + (np.column_stack([i.ravel(), j.ravel()]) + 0.5) * self.res
+
     def ravel(self, index: IntArray) -> IntArray:
         """(n,) int64 flat (C-order) indices of (n, 3) in-grid cell indices."""
         return np.ravel_multi_index(tuple(np.asarray(index).T), self.shape)

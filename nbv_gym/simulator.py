@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from nbv_gym.arrays import FloatArray
 from nbv_gym.config import check
 from nbv_gym.errors import NbvGymError
 from nbv_gym.grid import GridSpec
@@ -96,7 +95,7 @@ class Simulator:
         self.goal_grid = self.config.mapping.statistics.grid()
         self.voxel_grid = _refine(self.goal_grid, self.config.quality.voxel_size_m)
         self._ground_truth = self.world.ground_truth.occupancy(self.voxel_grid)
-        self.goal_centres = _goal_centres(self.goal_grid)
+        self.goal_centres = self.goal_grid.xy_centres()
         self.state: ExplorationState | None = None
 
     @property
@@ -204,10 +203,3 @@ class Simulator:
 def _refine(grid: GridSpec, res: float) -> GridSpec:
     """``grid``'s box at cell size ``res``."""
     return GridSpec.from_bounds(tuple(grid.low), tuple(grid.high), res)
-
-
-def _goal_centres(grid: GridSpec) -> FloatArray:
-    """(nx · ny, 2) float centres of ``grid``'s x, y cells, row-major (index i · ny + j)."""
-    nx, ny = grid.shape[:2]
-    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
-    return grid.low[:2] + (np.column_stack([i.ravel(), j.ravel()]) + 0.5) * grid.res

@@ -103,7 +103,10 @@ class NavigationLayer:
         self._unknown_disc = disc(frontier_unknown_dilation_m, cell_m)
         self._occupied_disc = disc(frontier_occupied_margin_m, cell_m)
         self._inner = _inner_cells(self.grid, border_margin_m)
-        self._goal_cells = self.grid.index(_goal_centres(goal_grid))[:, :2]
+        centres = goal_grid.xy_centres()
+        self._goal_cells = self.grid.index(np.column_stack([centres, np.zeros(len(centres))]))[
+            :, :2
+        ]
         self._goal_inner = _inner_cells(_flat(goal_grid), border_margin_m).ravel()
         shape = self.grid.shape[:2]
         self.known = np.zeros(shape, bool)
@@ -267,12 +270,6 @@ def _nav_grid(goal_grid: GridSpec, cell_m: float, z_m: float) -> GridSpec:
 def _flat(grid: GridSpec) -> GridSpec:
     """``grid`` with one z layer."""
     return GridSpec(grid.origin, grid.res, (grid.shape[0], grid.shape[1], 1))
-
-
-def _goal_centres(goal_grid: GridSpec) -> np.ndarray:
-    """(n_goals, 3) centres of G's x, y cells (row-major), at the bottom layer's height."""
-    index = np.argwhere(np.ones(goal_grid.shape[:2], bool))
-    return goal_grid.centres(np.column_stack([index, np.zeros(len(index), int)]))
 
 
 def _inner_cells(grid: GridSpec, margin_m: float) -> np.ndarray:

@@ -417,9 +417,7 @@ class OccupancyMap:
         np.savez_compressed(
             Path(path),
             format=np.array(_FORMAT),
-            origin=np.asarray(self.grid.origin, float),
-            res=np.float64(self.grid.res),
-            shape=np.asarray(self.grid.shape, np.int64),
+            **self.grid.to_arrays(),
             params=np.array([self.params[k] for k in _PARAM_KEYS]),
             index=self.grid.ravel(index).astype(np.int64),
             logodds=logodds,
@@ -431,11 +429,7 @@ class OccupancyMap:
         with np.load(Path(path)) as data:
             if "format" not in data or str(data["format"]) != _FORMAT:
                 raise NbvGymError(f"{path} is not an nbv-gym occupancy map ({_FORMAT} .npz file)")
-            grid = GridSpec(
-                tuple(float(v) for v in data["origin"]),
-                float(data["res"]),
-                tuple(int(v) for v in data["shape"]),
-            )
+            grid = GridSpec.from_arrays(data)
             params = dict(zip(_PARAM_KEYS, (float(v) for v in data["params"]), strict=True))
             logodds = np.full(grid.shape, np.nan, np.float32)
             logodds.ravel()[data["index"]] = data["logodds"]

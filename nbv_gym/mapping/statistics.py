@@ -172,9 +172,7 @@ class ViewpointStatistics:
         np.savez_compressed(
             Path(path),
             format=np.array(_FORMAT),
-            origin=np.asarray(self.grid.origin, float),
-            res=np.float64(self.grid.res),
-            shape=np.asarray(self.grid.shape, np.int64),
+            **self.grid.to_arrays(),
             n_sectors=np.int64(self.n_sectors),
             range_window_m=np.asarray(self.range_window_m),
             min_return_z_m=np.float64(self.min_return_z_m),
@@ -190,11 +188,7 @@ class ViewpointStatistics:
         with np.load(Path(path)) as data:
             if "format" not in data or str(data["format"]) != _FORMAT:
                 raise NbvGymError(f"{path} is not an nbv-gym statistics file ({_FORMAT} .npz)")
-            grid = GridSpec(
-                tuple(float(v) for v in data["origin"]),
-                float(data["res"]),
-                tuple(int(v) for v in data["shape"]),
-            )
+            grid = GridSpec.from_arrays(data)
             low, high = (float(v) for v in data["range_window_m"])
             stats = cls(
                 grid,

@@ -51,6 +51,17 @@ def _argmin_octomap(tx: float, ty: float, tz: float) -> int:
 
 
 @njit(cache=True, inline="always")
+def _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz):
+    """One DDA step: move to the next cell along the axis OctoMap advances along."""
+    axis = _argmin_octomap(tx, ty, tz)
+    if axis == 0:
+        return cx + sx, cy, cz, tx + ddx, ty, tz
+    if axis == 1:
+        return cx, cy + sy, cz, tx, ty + ddy, tz
+    return cx, cy, cz + sz, tx, ty, tz + ddz
+
+
+@njit(cache=True, inline="always")
 def _window_bit(ix, iy, iz, w) -> int:
     """Index of a voxel's bit in the per-scan marking window, or -1 outside the window or the map.
 
@@ -179,16 +190,7 @@ def _carve_ray(store, tiles, o, e, miss, lo_min, lo_max, marks, w, touched, cell
             return
         if not _test_and_set(marks, bit):
             _update_voxel(store, cx, cy, cz, tiles, miss, lo_min, lo_max, touched, cells)
-        axis = _argmin_octomap(tx, ty, tz)
-        if axis == 0:
-            cx += sx
-            tx += ddx
-        elif axis == 1:
-            cy += sy
-            ty += ddy
-        else:
-            cz += sz
-            tz += ddz
+        cx, cy, cz, tx, ty, tz = _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz)
         if cx == ex and cy == ey and cz == ez:
             return
         if min(tx, min(ty, tz)) > length:
@@ -270,16 +272,7 @@ def _observe_segment(stats, stamp, scan_id, a, b, origin, cell_m, low, window, n
             _observe_cell(stats, cx, cy, cz, origin, cell_m, low, window, n_sectors)
         if (cx == ex and cy == ey and cz == ez) or min(tx, min(ty, tz)) > length + 1e-9:
             return
-        axis = _argmin_octomap(tx, ty, tz)
-        if axis == 0:
-            cx += sx
-            tx += ddx
-        elif axis == 1:
-            cy += sy
-            ty += ddy
-        else:
-            cz += sz
-            tz += ddz
+        cx, cy, cz, tx, ty, tz = _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz)
         if not (0 <= cx < n[0] and 0 <= cy < n[1] and 0 <= cz < n[2]):
             return
 

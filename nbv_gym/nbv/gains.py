@@ -66,11 +66,8 @@ def candidate_mask(
 
 
 def goal_centres_xy(grid: GridSpec) -> np.ndarray:
-    """(nx · ny, 2) float64 centres (metres) of G's x, y cells in goal order (row-major,
-    index = i · ny + j)."""
-    nx, ny = grid.shape[:2]
-    i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
-    return grid.low[:2] + (np.column_stack([i.ravel(), j.ravel()]) + 0.5) * grid.res
+    """(nx · ny, 2) float64 centres of ``grid``'s x, y cells (goal order)."""
+    return grid.xy_centres()
 
 
 def predict_gains(

@@ -12,8 +12,10 @@
   ``border_margin_m`` inside the window (dilations with the same disc rule, by
   ``frontier_unknown_dilation_m`` and ``frontier_occupied_margin_m``).
 - Path lengths: 8-connected Dijkstra over eroded free cells (steps ``cell_m`` and ``√2·cell_m``
-  between cell centres) from the robot's cell; the cells of the robot's own footprint (its disc)
-  are passable too, so that noise in its own scan cannot trap it.
+  between cell centres) from the robot's cell (always a source). Near the robot the search may
+  also cross free cells that erosion removed, within ``escape_radius_m``: a scan that reveals an
+  obstacle next to the goal the robot just reached, or a lidar outlier beside it, cannot trap it
+  where it stands (*ours*; goals still need eroded free space, and occupied cells stay walls).
 - Goals: the x, y cells of G (row-major: index = i·ny + j, i along x). A point belongs to the nav
   cell that holds it under the half-open grid convention, so a goal's centre (a corner of four nav
   cells) belongs to the cell up and right of it; path lengths between goal centres are then exact
@@ -49,6 +51,7 @@ class NavigationConfig:
 
     cell_m: float = 0.5
     robot_radius_m: float = 0.5
+    escape_radius_m: float = 2.0
     known_band_m: tuple[float, float] = (-0.3, 1.0)
     occupied_band_m: tuple[float, float] = (0.2, 1.0)
     search_range_m: float = 20.0
@@ -58,7 +61,12 @@ class NavigationConfig:
 
     def __post_init__(self) -> None:
         check(self.cell_m > 0, "cell_m", f"must be > 0, got {self.cell_m}")
-        for name in ("robot_radius_m", "border_margin_m", "frontier_unknown_dilation_m"):
+        for name in (
+            "robot_radius_m",
+            "escape_radius_m",
+            "border_margin_m",
+            "frontier_unknown_dilation_m",
+        ):
             check(getattr(self, name) >= 0, name, f"must be ≥ 0, got {getattr(self, name)}")
         check(self.frontier_occupied_margin_m >= 0, "frontier_occupied_margin_m", "must be ≥ 0")
         check(
@@ -87,6 +95,7 @@ class NavigationLayer:
         *,
         cell_m: float,
         robot_radius_m: float,
+        escape_radius_m: float,
         known_band_m: tuple[float, float],
         occupied_band_m: tuple[float, float],
         search_range_m: float,
@@ -100,6 +109,7 @@ class NavigationLayer:
         self.occupied_band_m = tuple(occupied_band_m)
         self.search_range_m = float(search_range_m)
         self._robot_disc = disc(robot_radius_m, cell_m)
+        self._escape_disc = disc(escape_radius_m, cell_m)
         self._unknown_disc = disc(frontier_unknown_dilation_m, cell_m)
         self._occupied_disc = disc(frontier_occupied_margin_m, cell_m)
         self._inner = _inner_cells(self.grid, border_margin_m)
@@ -146,27 +156,26 @@ class NavigationLayer:
         self.frontier_mask = unknown_near & self.eroded_free & ~occupied_near & self._inner
 
     def plan(self, robot_xy: FloatArray) -> None:
-        """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free cells."""
+        """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free
+        cells and the robot's escape zone."""
         self.robot_xy = np.asarray(robot_xy, dtype=float).reshape(2)
         start = self.grid.index([[*self.robot_xy, self.grid.origin[2]]])[0, :2]
         start = (int(start[0]), int(start[1]))
-        passable = self.eroded_free | self._footprint(start)
-        self.distance = path_lengths(passable, start, self.grid.res)
+        escape = self._escape_zone(start) & self.free
+        self.distance = path_lengths(self.eroded_free | escape, start, self.grid.res)
 
-    def _footprint(self, cell: tuple[int, int]) -> BoolArray:
-        """(nx, ny) bool: the cells the robot's disc covers when it stands in ``cell``. The robot
-        may always leave its own footprint (noise in its own scan can mark it occupied)."""
-        footprint = np.zeros(self.grid.shape[:2], bool)
-        k = self._robot_disc.shape[0] // 2
-        nx, ny = footprint.shape
+    def _escape_zone(self, cell: tuple[int, int]) -> BoolArray:
+        """(nx, ny) bool: the cells within the escape radius of ``cell``."""
+        zone = np.zeros(self.grid.shape[:2], bool)
+        k = self._escape_disc.shape[0] // 2
+        nx, ny = zone.shape
         i0, j0 = max(cell[0] - k, 0), max(cell[1] - k, 0)
         i1, j1 = min(cell[0] + k + 1, nx), min(cell[1] + k + 1, ny)
         if i0 < i1 and j0 < j1:
-            disc_ = self._robot_disc[
+            zone[i0:i1, j0:j1] = self._escape_disc[
                 i0 - cell[0] + k : i1 - cell[0] + k, j0 - cell[1] + k : j1 - cell[1] + k
             ]
-            footprint[i0:i1, j0:j1] = disc_
-        return footprint
+        return zone
 
     # ------------------------------------------------------------------ read-out
 

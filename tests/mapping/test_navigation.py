@@ -109,3 +109,23 @@ def test_bad_inputs_are_rejected():
         NavigationLayer.from_config(NavigationConfig(cell_m=0.3), GOALS)
     with pytest.raises(NbvGymError, match="shape"):
         layer().project(np.zeros((6, 6), bool), np.zeros((6, 6), bool))
+
+
+@pytest.mark.parametrize(("escape_m", "reachable"), [(0.5, False), (2.0, True)])
+def test_a_robot_hemmed_in_by_obstacles_escapes_through_free_cells(escape_m, reachable):
+    # all known and free but for two walls at nav rows 6 and 8 (y cells 2–8); the robot stands
+    # between them in cell (7, 5), where erosion leaves no free cell. Within 2 m it can walk along
+    # row 7 and round the walls' end at column 9, never through a wall.
+    known = np.ones((12, 12), bool)
+    occupied = np.zeros((12, 12), bool)
+    occupied[6, 2:9] = True
+    occupied[8, 2:9] = True
+    nav = NavigationLayer.from_config(NavigationConfig(escape_radius_m=escape_m), GOALS)
+    nav.update(known, occupied, robot_xy=(0.75, -0.25))  # nav cell (7, 5)
+    assert not nav.eroded_free[7, 5]
+    assert nav.goal_mask().any() == reachable
+    if reachable:
+        # goal (1, 4): nav cell (3, 9). Path (7, 5) → (7, 8): 3 steps; → (6, 9) diagonal; →
+        # (5, 9) (free, 1.9 m from the robot's cell: in the zone), (4, 9) (eroded free), (3, 9).
+        expected = (3 + 3) * 0.5 + R2 * 0.5
+        assert nav.goal_path_length()[1 * 6 + 4] == pytest.approx(expected)

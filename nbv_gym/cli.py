@@ -196,6 +196,16 @@ def _register_evaluate() -> None:
 _register_evaluate()
 
 
+def _register_sweep() -> None:
+    from nbv_gym.sweep.command import report, sweep
+
+    app.command()(sweep)
+    app.command()(report)
+
+
+_register_sweep()
+
+
 def main() -> None:
     """Entry point of the ``nbv-gym`` console script."""
     app()

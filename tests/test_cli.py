@@ -16,7 +16,9 @@ def nbv_gym(*args: str) -> subprocess.CompletedProcess:
 
 
 def test_every_command_has_help_with_examples():
-    for command in (["worlds", "list"], ["worlds", "build"], ["worlds", "preview"], ["bench"]):
+    commands = (["worlds", "list"], ["worlds", "build"], ["worlds", "preview"], ["bench"],
+                ["run"], ["evaluate"], ["sweep"], ["report"])  # fmt: skip
+    for command in commands:
         result = nbv_gym(*command, "--help")
         assert result.returncode == 0 and "Examples:" in result.stdout, command
 

@@ -1,0 +1,269 @@
+"""Sweep configs (``experiments/*.toml``): which worlds, noise levels, policies and repeats to run.
+
+A sweep is the product worlds × noise × policies × repeats. Every run has a key such as
+``pp1-trees/noise1/closest-frontier/rep0`` and a seed derived from the base seed, the world, the
+noise level and the repeat with SHA-256 — the policy is left out on purpose, so that all policies
+of one (world, noise, repeat) start from the same seed (common random numbers: the first scan is
+the same and comparisons between policies are paired).
+
+The ``[env]`` table overrides :class:`~nbv_gym.env.explore.EnvConfig` fields for every run (for
+example ``[env.simulator.lidar]`` or ``[env.nbv]``); ``simulator.world``, ``simulator.noise`` and
+``simulator.episode.max_steps`` are set by the sweep and may not appear there.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from nbv_gym.config import check, from_dict, to_dict
+from nbv_gym.errors import ConfigError, UnknownNameError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+#: The seven policies of the paper, in its order.
+PAPER_POLICIES = (
+    "random-frontier",
+    "closest-frontier",
+    "random-free",
+    "nbv-nobs",
+    "nbv-rmin",
+    "nbv-nomega",
+    "nbv-sigma",
+)
+
+#: Keys of ``[env]`` the sweep sets itself, as dotted paths.
+_RESERVED_ENV_KEYS = ("simulator.world", "simulator.noise", "simulator.episode.max_steps")
+
+
+def _benchmark_worlds() -> tuple[str, ...]:
+    from nbv_gym.worlds import benchmark_names
+
+    return tuple(benchmark_names())
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """A sweep: every combination of ``worlds`` × ``noise`` × ``policies`` × ``repeats``.
+
+    ``worlds``: benchmark world names or world spec files (``.toml``, relative to the config
+    file); ``noise``: localisation-noise levels (0, 1, 2); ``policies``: registered policy names,
+    ``module:Class`` or a trained agent (anything :func:`nbv_gym.policies.load_policy` takes);
+    ``repeats``: runs per combination; ``seed``: base seed of every run seed; ``max_steps``: the
+    episode truncation; ``retries``: how many times a failed run is retried within one
+    invocation; ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for every run.
+    """
+
+    name: str = "sweep"
+    worlds: tuple[str, ...] = field(default_factory=_benchmark_worlds)
+    noise: tuple[int, ...] = (0, 1, 2)
+    policies: tuple[str, ...] = PAPER_POLICIES
+    repeats: int = 3
+    seed: int = 0
+    max_steps: int = 100
+    retries: int = 2
+    env: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check(bool(self.name.strip()), "name", "must not be empty")
+        check(bool(self.worlds), "worlds", "name at least one world")
+        check(bool(self.noise), "noise", "name at least one noise level")
+        check(bool(self.policies), "policies", "name at least one policy")
+        for i, level in enumerate(self.noise):
+            check(level in (0, 1, 2), f"noise[{i}]", f"expected 0, 1 or 2, got {level!r}")
+        for key in ("worlds", "noise", "policies"):
+            values = getattr(self, key)
+            duplicates = sorted({str(v) for v in values if values.count(v) > 1})
+            check(not duplicates, key, f"lists {', '.join(duplicates)} more than once")
+        for i, policy in enumerate(self.policies):
+            _check_policy_name(policy, f"policies[{i}]")
+        names = [_checked_world_name(world, f"worlds[{i}]") for i, world in enumerate(self.worlds)]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        check(not twice, "worlds", f"two worlds are named {', '.join(twice)}; rename a spec")
+        check(self.repeats >= 1, "repeats", f"must be ≥ 1, got {self.repeats}")
+        check(self.seed >= 0, "seed", f"must be ≥ 0, got {self.seed}")
+        check(self.max_steps >= 1, "max_steps", f"must be ≥ 1, got {self.max_steps}")
+        check(self.retries >= 0, "retries", f"must be ≥ 0, got {self.retries}")
+        self.env_config(self.worlds[0], self.noise[0])  # checks every key of [env]
+
+    def env_config(self, world: str, noise: int):
+        """The :class:`~nbv_gym.env.explore.EnvConfig` of one run (``world`` a name or spec path)."""
+        from nbv_gym.env.explore import EnvConfig
+
+        for dotted in _RESERVED_ENV_KEYS:
+            if _has_path(self.env, dotted):
+                key = dotted.rsplit(".", 1)[-1]
+                raise ConfigError(
+                    f"env.{dotted}: set by the sweep; use the top-level key "
+                    f"{'worlds' if key == 'world' else key!r} instead"
+                )
+        run = {"simulator": {"world": world, "noise": noise, "episode": {}}}
+        run["simulator"]["episode"]["max_steps"] = self.max_steps
+        return from_dict(EnvConfig, _merge(self.env, run), "env")
+
+    def runs(self) -> list[RunSpec]:
+        """All runs, repeat by repeat (so a partial sweep covers every policy evenly)."""
+        return [
+            RunSpec(
+                world_name(world), world, level, policy, repeat, self.run_seed(world, level, repeat)
+            )
+            for repeat in range(self.repeats)
+            for level in self.noise
+            for world in self.worlds
+            for policy in self.policies
+        ]
+
+    def run_seed(self, world: str, noise: int, repeat: int) -> int:
+        """The seed of every run of (``world``, ``noise``, ``repeat``): SHA-256 of the base seed and
+        those three, as a 63-bit integer."""
+        text = f"{self.seed}/{world_name(world)}/noise{noise}/rep{repeat}"
+        return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "big") >> 1
+
+    def results_fingerprint(self) -> dict[str, Any]:
+        """The parts of the config that change a run's result (for resuming into a folder)."""
+        data = to_dict(self)
+        for key in ("name", "worlds", "noise", "policies", "repeats", "retries"):
+            data.pop(key)
+        return data
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of a sweep: ``world`` (the world's name), ``world_source`` (name or spec path to
+    load), ``noise``, ``policy``, ``repeat`` and its ``seed``."""
+
+    world: str
+    world_source: str
+    noise: int
+    policy: str
+    repeat: int
+    seed: int
+
+    @property
+    def key(self) -> str:
+        """``world/noiseN/policy/repK``, e.g. ``pp1-trees/noise1/closest-frontier/rep0``."""
+        return f"{self.world}/noise{self.noise}/{self.policy}/rep{self.repeat}"
+
+    @property
+    def file_stem(self) -> str:
+        """A file name for the run: the key made safe, plus a short hash against collisions."""
+        safe = re.sub(r"[^A-Za-z0-9._-]+", "_", self.key.replace("/", "__"))
+        return f"{safe}--{hashlib.sha256(self.key.encode()).hexdigest()[:8]}"
+
+
+def load_sweep_config(path: str | Path) -> SweepConfig:
+    """The :class:`SweepConfig` of a TOML file; relative world spec paths are taken relative to
+    the file. Raises :class:`ConfigError` naming the file and the offending key."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"Sweep config {str(path)!r} does not exist (see experiments/*.toml).")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    data.setdefault("name", path.stem)
+    if isinstance(data.get("worlds"), list):
+        data["worlds"] = [_resolve_world(w, path.parent) for w in data["worlds"]]
+    try:
+        return from_dict(SweepConfig, data)
+    except ConfigError as error:
+        raise ConfigError(f"{path}: {error}") from None
+
+
+def with_overrides(config: SweepConfig, **values: Any) -> SweepConfig:
+    """``config`` with some top-level fields replaced (None values are ignored)."""
+    return replace(config, **{k: v for k, v in values.items() if v is not None})
+
+
+def world_name(world: str) -> str:
+    """The name of a benchmark world or of the world in a spec file."""
+    if world.endswith(".toml"):
+        from nbv_gym.worlds import load_spec
+
+        return load_spec(world).name
+    return world
+
+
+def dumps_toml(data: Mapping[str, Any]) -> str:
+    """``data`` (nested tables of strings, numbers, booleans and lists of them) as TOML text."""
+    lines: list[str] = []
+    _dump_table(data, "", lines)
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _dump_table(data: Mapping[str, Any], prefix: str, lines: list[str]) -> None:
+    tables = {k: v for k, v in data.items() if isinstance(v, Mapping)}
+    for key, value in data.items():
+        if key not in tables:
+            lines.append(f"{_toml_key(key)} = {_toml_value(value)}")
+    for key, value in tables.items():
+        name = f"{prefix}.{_toml_key(key)}" if prefix else _toml_key(key)
+        lines.extend(["", f"[{name}]"])
+        _dump_table(value, name, lines)
+
+
+def _toml_key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_value(key)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise ConfigError(f"cannot write {type(value).__name__} {value!r} to TOML")
+
+
+def _check_policy_name(name: str, key: str) -> None:
+    from nbv_gym.policies import POLICIES
+
+    if name not in POLICIES and ":" not in name:
+        try:
+            raise UnknownNameError("policy", name, POLICIES)
+        except UnknownNameError as error:
+            raise ConfigError(f"{key}: {error} Or give module:Class for your own policy.") from None
+
+
+def _checked_world_name(world: str, key: str) -> str:
+    from nbv_gym.errors import NbvGymError
+    from nbv_gym.worlds import load_spec
+
+    try:
+        return load_spec(world).name
+    except NbvGymError as error:
+        raise ConfigError(f"{key}: {error}") from None
+
+
+def _resolve_world(world: Any, base: Path) -> Any:
+    if isinstance(world, str) and world.endswith(".toml") and not Path(world).is_absolute():
+        return str((base / world).resolve())
+    return world
+
+
+def _has_path(data: Mapping[str, Any], dotted: str) -> bool:
+    head, _, rest = dotted.partition(".")
+    if head not in data:
+        return False
+    return not rest or (isinstance(data[head], Mapping) and _has_path(data[head], rest))
+
+
+def _merge(base: Mapping[str, Any], extra: Mapping[str, Any]) -> dict[str, Any]:
+    merged = dict(base)
+    for key, value in extra.items():
+        if isinstance(value, Mapping) and isinstance(merged.get(key), Mapping):
+            merged[key] = _merge(merged[key], value)
+        else:
+            merged[key] = value
+    return merged

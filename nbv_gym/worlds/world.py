@@ -13,7 +13,6 @@ import numpy as np
 
 from nbv_gym.arrays import FloatArray, IntArray
 from nbv_gym.config import to_dict
-from nbv_gym.errors import NbvGymError
 from nbv_gym.worlds import shapes
 from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
 from nbv_gym.worlds.placement import Layout, clear_start, layout
@@ -186,7 +185,3 @@ def _read(path: Path, spec: WorldSpec) -> World:
         )
         truth = GroundTruth(data["ground_truth"], float(data["res"]))
         return World(spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth)
-
-
-class WorldError(NbvGymError):
-    """A world could not be built or loaded."""

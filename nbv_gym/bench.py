@@ -23,6 +23,7 @@ SUITES: dict[str, str] = {
     "metrics": "nbv_gym.metrics.bench",
     "nbv": "nbv_gym.nbv.bench",
     "env": "nbv_gym.env.bench",
+    "rl": "nbv_gym.rl.bench",
 }
 
 BENCH_WORLD = "pp1-trees"

@@ -48,6 +48,8 @@ def worlds_list() -> None:
     """List the benchmark worlds with a one-line description.
 
     Examples:
+
+    \b
       nbv-gym worlds list
     """
     from nbv_gym.worlds import benchmark_names, load_spec
@@ -65,6 +67,8 @@ def worlds_build(
     """Build worlds (mesh and ground truth) into the cache ($NBV_GYM_CACHE moves it).
 
     Examples:
+
+    \b
       nbv-gym worlds build pp1-trees
       nbv-gym worlds build --all
       nbv-gym worlds build my_world.toml --force
@@ -96,6 +100,8 @@ def worlds_preview(
     """Draw a world (top-down and oblique views, ground truth coloured by height) to a PNG.
 
     Examples:
+
+    \b
       nbv-gym worlds preview pp1-trees --out pp1-trees.png
     """
     from nbv_gym.worlds import load_world
@@ -121,6 +127,8 @@ def run(
     statistics.npz and exploration.gif.
 
     Examples:
+
+    \b
       nbv-gym run --world pp1-trees --policy closest-frontier --noise 1 --seed 0 --out runs/cf
       nbv-gym run --policy my_module:MyPolicy --world my_world.toml --no-animation
     """
@@ -173,6 +181,8 @@ def bench(
     """Measure throughput (world build, scans, …); progress goes to stderr.
 
     Examples:
+
+    \b
       nbv-gym bench
       nbv-gym bench --json > bench.json
       nbv-gym bench --suite foundation
@@ -204,6 +214,15 @@ def _register_sweep() -> None:
 
 
 _register_sweep()
+
+
+def _register_train() -> None:
+    from nbv_gym.rl.command import train
+
+    app.command()(train)
+
+
+_register_train()
 
 
 def main() -> None:

@@ -47,9 +47,18 @@ class Policy(Protocol):
         goal (``info["action_mask"]``)."""
 
 
+#: Prefix of a trained stable-baselines3 model: ``"sb3:runs/ppo/best_model.zip"``.
+SB3_PREFIX = "sb3:"
+
+
 def load_policy(name: str, **kwargs: Any) -> Policy:
-    """A new policy from a registered name (``"closest-frontier"``) or ``"module:Class"``;
-    ``kwargs`` go to the class's constructor."""
+    """A new policy from a registered name (``"closest-frontier"``), ``"module:Class"`` or
+    ``"sb3:PATH"`` (a model saved by ``nbv-gym train``); ``kwargs`` go to the class's
+    constructor."""
+    if name.startswith(SB3_PREFIX):
+        from nbv_gym.rl.agent import SB3Policy
+
+        return SB3Policy(name[len(SB3_PREFIX) :], **kwargs)
     target = POLICIES.get(name, name)
     if ":" not in target:
         raise UnknownNameError("policy", name, POLICIES)
@@ -73,7 +82,9 @@ def _import_class(target: str, name: str) -> type:
     try:
         module = importlib.import_module(module_name)
     except ImportError as error:
-        raise PolicyError(f"Policy {name!r}: cannot import module {module_name!r}: {error}") from None
+        raise PolicyError(
+            f"Policy {name!r}: cannot import module {module_name!r}: {error}"
+        ) from None
     try:
         return getattr(module, class_name)
     except AttributeError:

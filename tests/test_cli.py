@@ -17,7 +17,7 @@ def nbv_gym(*args: str) -> subprocess.CompletedProcess:
 
 def test_every_command_has_help_with_examples():
     commands = (["worlds", "list"], ["worlds", "build"], ["worlds", "preview"], ["bench"],
-                ["run"], ["evaluate"], ["sweep"], ["report"])  # fmt: skip
+                ["run"], ["evaluate"], ["sweep"], ["report"], ["train"])  # fmt: skip
     for command in commands:
         result = nbv_gym(*command, "--help")
         assert result.returncode == 0 and "Examples:" in result.stdout, command

@@ -1,0 +1,130 @@
+"""A trained stable-baselines3 model as a policy: ``load_policy("sb3:runs/ppo/best_model.zip")``.
+
+:class:`SB3Policy` declares the optional observation layers the model was trained with (read
+from the saved observation space), so ``make_env`` computes them, and refuses models whose action
+space or observation layers do not fit ``Explore-v0``.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from nbv_gym.env.layers import OPTIONAL_LAYERS
+from nbv_gym.env.observation import BASE_LAYERS, STATE_SIZE
+from nbv_gym.policies import PolicyError
+
+N_GOALS = 3600
+STATE_KEY = "state"
+
+
+class SB3Policy:
+    """A saved SB3 model (MaskablePPO, PPO or A2C) acting deterministically.
+
+    MaskablePPO acts among ``info["action_mask"]``; the other algorithms' goal is replaced by the
+    nearest valid goal when invalid, as during their training.
+    """
+
+    def __init__(self, path: str | Path, device: str = "cpu"):
+        from nbv_gym.rl.train import require_rl
+
+        require_rl()
+        self.path = Path(path)
+        self.model = load_model(self.path, device)
+        self.observation_layers = check_spaces(self.model, self.path)
+        self.masked = type(self.model).__name__ == "MaskablePPO"
+
+    def reset(self, seed: int | None = None) -> None:
+        """Nothing to reset: the policy is deterministic."""
+
+    def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
+        """The model's most probable valid goal for ``observation``."""
+        from nbv_gym.rl.envs import nearest_valid_goal
+
+        mask = np.asarray(info["action_mask"], bool)
+        missing = [k for k in self.model.observation_space.spaces if k not in observation]
+        if missing:
+            raise PolicyError(
+                f"{str(self.path)!r} needs the observation layers {missing}, which the "
+                "environment does not give; build it with nbv_gym.episode.make_env."
+            )
+        obs = {k: np.asarray(observation[k]) for k in self.model.observation_space.spaces}
+        if self.masked:
+            action, _ = self.model.predict(obs, action_masks=mask, deterministic=True)
+            return int(action)
+        action, _ = self.model.predict(obs, deterministic=True)
+        return nearest_valid_goal(int(action), mask)
+
+
+def check_model_file(path: Path) -> None:
+    """Raise :class:`PolicyError` unless ``path`` is an SB3 model zip."""
+    if not path.is_file():
+        raise PolicyError(f"No SB3 model at {str(path)!r}: expected a .zip saved by nbv-gym train.")
+    if not zipfile.is_zipfile(path):
+        raise PolicyError(f"{str(path)!r} is not an SB3 model: expected a .zip file.")
+
+
+def load_model(path: Path, device: str = "cpu"):
+    """The SB3 model saved at ``path``, whichever supported algorithm saved it."""
+    from nbv_gym.rl.train import ALGORITHM_CLASSES, algorithm_class
+
+    check_model_file(path)
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    data, _, _ = load_from_zip_file(path, device=device, load_data=True)
+    policy_class = getattr(data.get("policy_class"), "__name__", "")
+    name = "MaskablePPO" if "Maskable" in policy_class else _unmasked_algorithm(data)
+    if name not in ALGORITHM_CLASSES:
+        raise PolicyError(f"{str(path)!r}: cannot tell which algorithm saved this model.")
+    return algorithm_class(name).load(path, device=device)
+
+
+def _unmasked_algorithm(data: dict[str, Any]) -> str:
+    """PPO saves ``n_epochs``/``clip_range``; A2C does not."""
+    return "PPO" if "n_epochs" in data else "A2C"
+
+
+def check_spaces(model, path: Path) -> tuple[str, ...]:
+    """The optional layers ``model`` observes; :class:`PolicyError` if its action space is not
+    ``Discrete(3600)`` or its observation is not ``Explore-v0``'s for some set of layers."""
+    from gymnasium import spaces
+
+    action_space = model.action_space
+    if not isinstance(action_space, spaces.Discrete) or int(action_space.n) != N_GOALS:
+        raise PolicyError(
+            f"{str(path)!r} was trained for the action space {action_space}; Explore-v0 needs "
+            f"Discrete({N_GOALS}) (one action per goal). Retrain it with nbv-gym train."
+        )
+    space = model.observation_space
+    if not isinstance(space, spaces.Dict):
+        raise PolicyError(
+            f"{str(path)!r} observes {space}; Explore-v0 gives a Dict of layers and 'state'."
+        )
+    return _check_keys(space, path)
+
+
+def _check_keys(space, path: Path) -> tuple[str, ...]:
+    keys = set(space.spaces)
+    missing = [k for k in (*BASE_LAYERS, STATE_KEY) if k not in keys]
+    unknown = sorted(keys - {*BASE_LAYERS, STATE_KEY, *OPTIONAL_LAYERS})
+    if missing or unknown:
+        raise PolicyError(
+            f"{str(path)!r} was trained on other observation layers than Explore-v0 gives: "
+            f"missing {missing}, unknown {unknown}. Expected the base layers "
+            f"{list(BASE_LAYERS)}, 'state' and optional layers from {list(OPTIONAL_LAYERS)}."
+        )
+    wrong = {
+        k: s.shape
+        for k, s in space.spaces.items()
+        if s.shape != ((STATE_SIZE,) if k == STATE_KEY else (N_GOALS,))
+    }
+    if wrong:
+        raise PolicyError(
+            f"{str(path)!r} expects other observation shapes than Explore-v0 gives: {wrong}; "
+            f"layers are ({N_GOALS},) and 'state' ({STATE_SIZE},)."
+        )
+    return tuple(k for k in OPTIONAL_LAYERS if k in keys)

@@ -1,0 +1,77 @@
+"""``nbv-gym train``: train an RL exploration agent (torch and SB3 imported inside the command)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+
+def train(
+    config: Annotated[
+        Path, typer.Option("--config", help="Training config (TOML), e.g. experiments/ppo.toml.")
+    ],
+    timesteps: Annotated[
+        int | None, typer.Option(help="Total environment steps (overrides total_timesteps).")
+    ] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="Run folder (default: runs/<config name>).")
+    ] = None,
+    resume: Annotated[
+        Path | None,
+        typer.Option(help="Checkpoint or model zip to continue from (keeps its step count)."),
+    ] = None,
+    n_envs: Annotated[
+        int | None, typer.Option(help="Parallel environments (overrides n_envs).")
+    ] = None,
+    seed: Annotated[int | None, typer.Option(help="Seed (overrides seed).")] = None,
+    progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
+    verbose: Annotated[bool, typer.Option(help="Print SB3's training tables.")] = False,
+) -> None:
+    """Train a stable-baselines3 agent (MaskablePPO by default) on the training worlds, with
+    periodic checkpoints and masked evaluation on the evaluation worlds.
+
+    The run folder holds config.toml, system_info.txt, logs/run-<k>/ (progress.csv and
+    TensorBoard events), checkpoints/, best_model.zip (best evaluation) and final_model.zip.
+    A model runs as a policy named sb3:PATH in nbv-gym run and in sweep configs.
+
+    Examples:
+
+    \b
+      nbv-gym train --config experiments/ppo.toml
+      nbv-gym train --config experiments/ppo.toml --timesteps 5000 --out runs/ppo-short
+      nbv-gym train --config experiments/ppo.toml --resume runs/ppo/checkpoints/model_8000_steps.zip
+      tensorboard --logdir runs/ppo/logs
+      nbv-gym run --policy sb3:runs/ppo/best_model.zip --world pp3-trees
+    """
+    from nbv_gym.rl.config import load_train_config
+    from nbv_gym.rl.train import train as train_agent
+
+    overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed}
+    settings = load_train_config(config, overrides)
+    out = out or Path("runs") / config.stem
+    typer.echo(
+        f"{settings.algorithm}: {settings.total_timesteps:,} steps, {settings.n_envs} envs, "
+        f"train on {len(settings.train_worlds)} worlds, evaluate on "
+        f"{len(settings.eval_worlds)} → {out}",
+        err=True,
+    )
+    model = train_agent(settings, out, resume=resume, progress_bar=progress, verbose=int(verbose))
+    _summary(out, model.num_timesteps)
+
+
+def _summary(out: Path, steps: int) -> None:
+    """The final table: steps, best evaluation return and the model files."""
+    import numpy as np
+
+    rows = [("steps", f"{steps:,}")]
+    evaluations = out / "eval" / "evaluations.npz"
+    if evaluations.exists():
+        results = np.load(evaluations)["results"].mean(axis=1)
+        rows.append(("best eval return", f"{results.max():.3f} (of {len(results)} evaluations)"))
+    for name in ("best_model.zip", "final_model.zip"):
+        if (out / name).exists():
+            rows.append((name, str(out / name)))
+    for key, value in rows:
+        typer.echo(f"{key:<18} {value}")

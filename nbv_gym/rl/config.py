@@ -1,0 +1,144 @@
+"""The training config of ``nbv-gym train`` (a TOML file such as ``experiments/ppo.toml``).
+
+Top-level keys are :class:`TrainConfig`'s fields; the learning hyper-parameters live in the
+``[learning]`` table (:class:`LearningConfig`). Unknown keys are rejected with their dotted path.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from nbv_gym.config import check, from_dict
+from nbv_gym.env.layers import OPTIONAL_LAYERS
+from nbv_gym.errors import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+#: Algorithms ``nbv-gym train`` supports. MaskablePPO reads the action mask; PPO and A2C do not,
+#: so their environments replace an invalid goal by the nearest valid one (:mod:`nbv_gym.rl.envs`).
+ALGORITHMS = ("MaskablePPO", "PPO", "A2C")
+
+TRAIN_WORLDS = tuple(
+    f"pp{i}-{a}" for i in (1, 2) for a in ("cuboids", "crosses", "helicoids", "trees")
+)
+EVAL_WORLDS = tuple(f"pp3-{a}" for a in ("cuboids", "crosses", "helicoids", "trees"))
+
+
+@dataclass(frozen=True)
+class LearningConfig:
+    """Hyper-parameters of the on-policy learners (SB3's names and meanings).
+
+    ``n_steps`` is per environment: one update sees ``n_steps · n_envs`` steps. ``batch_size``,
+    ``n_epochs`` and ``clip_range`` are PPO's only.
+    """
+
+    n_steps: int = 128
+    batch_size: int = 64
+    n_epochs: int = 10
+    learning_rate: float = 1e-3
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+
+    def __post_init__(self) -> None:
+        check(self.n_steps >= 2, "n_steps", f"must be ≥ 2, got {self.n_steps}")
+        check(self.batch_size >= 2, "batch_size", f"must be ≥ 2, got {self.batch_size}")
+        check(self.n_epochs >= 1, "n_epochs", f"must be ≥ 1, got {self.n_epochs}")
+        check(self.learning_rate > 0, "learning_rate", f"must be > 0, got {self.learning_rate}")
+        check(0 < self.gamma <= 1, "gamma", f"must be in (0, 1], got {self.gamma}")
+        check(0 <= self.gae_lambda <= 1, "gae_lambda", f"must be in [0, 1], got {self.gae_lambda}")
+        check(self.clip_range > 0, "clip_range", f"must be > 0, got {self.clip_range}")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """One training run of an RL exploration agent.
+
+    - ``algorithm``: one of :data:`ALGORITHMS`.
+    - ``total_timesteps``: environment steps over all parallel environments.
+    - ``n_envs``: parallel environments (``SubprocVecEnv`` when > 1); each cycles over its share
+      of ``train_worlds``, one world per episode.
+    - ``train_worlds`` / ``eval_worlds``: world names or spec files; evaluation cycles over
+      ``eval_worlds`` with ``eval_episodes`` episodes (default: one per world).
+    - ``noise``, ``max_steps``: the environment's localisation noise level and episode length.
+    - ``observation_layers``: optional layers (e.g. ``gain_nobs``) the agent observes besides the
+      base layers; they are stored in the model and checked when it is loaded as a policy.
+    - ``reward_scale``: the learner sees ``reward_scale · ΔQ`` (ΔQ is ~1e-3 per step, too small
+      for the default value-function scale); reported returns are scaled too.
+    - ``network``: ``"goal-map"`` scores every goal with a fully convolutional head (the action
+      is a cell of the map); ``"dense"`` is SB3's usual MLP head on the CNN features.
+    - ``features_dim``: size of the global feature vector (CNN + robot state).
+    - ``checkpoint_every_steps`` / ``eval_every_steps``: in environment steps (0 disables).
+    - ``seed``: seeds the learner and the environments (episode ``k`` of env ``i`` derives its
+      seed from it).
+    """
+
+    algorithm: str = "MaskablePPO"
+    total_timesteps: int = 200_000
+    n_envs: int = 2
+    train_worlds: tuple[str, ...] = TRAIN_WORLDS
+    eval_worlds: tuple[str, ...] = EVAL_WORLDS
+    noise: int = 1
+    max_steps: int = 100
+    observation_layers: tuple[str, ...] = ()
+    reward_scale: float = 100.0
+    network: Literal["goal-map", "dense"] = "goal-map"
+    features_dim: int = 128
+    learning: LearningConfig = field(default_factory=LearningConfig)
+    checkpoint_every_steps: int = 2_000
+    eval_every_steps: int = 4_000
+    eval_episodes: int = 0
+    seed: int = 0
+    device: str = "cpu"
+
+    def __post_init__(self) -> None:
+        check(
+            self.algorithm in ALGORITHMS,
+            "algorithm",
+            f"expected one of {', '.join(ALGORITHMS)}, got {self.algorithm!r}",
+        )
+        check(self.total_timesteps >= 1, "total_timesteps", "must be ≥ 1")
+        check(self.n_envs >= 1, "n_envs", f"must be ≥ 1, got {self.n_envs}")
+        check(len(self.train_worlds) >= 1, "train_worlds", "name at least one world")
+        check(self.noise in (0, 1, 2), "noise", f"expected 0, 1 or 2, got {self.noise!r}")
+        check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
+        unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
+        check(
+            not unknown,
+            "observation_layers",
+            f"unknown layer(s) {unknown}; optional layers: {list(OPTIONAL_LAYERS)}",
+        )
+        check(self.reward_scale > 0, "reward_scale", "must be > 0")
+        check(self.features_dim >= 8, "features_dim", "must be ≥ 8")
+        check(self.checkpoint_every_steps >= 0, "checkpoint_every_steps", "must be ≥ 0")
+        check(self.eval_every_steps >= 0, "eval_every_steps", "must be ≥ 0")
+        check(self.eval_episodes >= 0, "eval_episodes", "must be ≥ 0")
+        check(self.device in ("cpu", "cuda", "auto"), "device", "expected cpu, cuda or auto")
+
+    @property
+    def n_eval_episodes(self) -> int:
+        """Episodes per evaluation: ``eval_episodes``, or one per evaluation world."""
+        return self.eval_episodes or len(self.eval_worlds)
+
+
+def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:
+    """The :class:`TrainConfig` of a TOML file, with ``overrides`` (top-level keys, e.g. from
+    the command line) applied; unknown keys raise :class:`ConfigError` naming them."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"Training config {str(path)!r} does not exist.")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    data.update({k: v for k, v in (overrides or {}).items() if v is not None})
+    return from_dict(TrainConfig, data)

@@ -1,0 +1,150 @@
+"""Networks for the ``Explore-v0`` observation: a small CNN over the 2D layers plus the robot state.
+
+:class:`MapExtractor` stacks the flat (3600,) layers of the observation into a (C, 60, 60) image
+(``layer.reshape(60, 60)`` is the picture, goal ``g = i · 60 + j``), runs a small CNN and an MLP
+on ``state``, and concatenates. With ``goal_scores=True`` it also returns one score per goal from
+a fully convolutional head (local features modulated by the global ones, plus a linear
+read-out of the layers themselves, which lets a policy learn "near frontier" early); the goal-map
+policies below use those scores directly as the action logits, so the policy's output lives on
+the same grid as its input.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import partial
+
+import numpy as np
+import torch as th
+from gymnasium import spaces
+from sb3_contrib.common.maskable.policies import MaskableMultiInputActorCriticPolicy
+from stable_baselines3.common.policies import MultiInputActorCriticPolicy
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from torch import nn
+
+STATE_KEY = "state"
+LOCAL_CHANNELS = 16
+STATE_FEATURES = 32
+
+
+class MapExtractor(BaseFeaturesExtractor):
+    """Features of a Dict observation of flat square layers and a ``state`` vector.
+
+    Output: (batch, n_goals + features_dim) float with ``goal_scores`` (the goal scores first),
+    else (batch, features_dim). Layers whose upper bound exceeds 1 (the NBV gain layers) enter as
+    ``log1p(x) / log1p(high)``.
+    """
+
+    def __init__(
+        self, observation_space: spaces.Dict, features_dim: int = 128, goal_scores: bool = True
+    ):
+        self.layer_keys = map_layer_keys(observation_space)
+        n_goals = observation_space[self.layer_keys[0]].shape[0]
+        super().__init__(observation_space, features_dim + (n_goals if goal_scores else 0))
+        self.side = math.isqrt(n_goals)
+        self.goal_scores = goal_scores
+        self.global_dim = features_dim
+        self.register_buffer("log_high", _log_highs(observation_space, self.layer_keys))
+        self.local = _local_cnn(len(self.layer_keys))
+        self.map_features = _global_cnn(self.side, features_dim - STATE_FEATURES)
+        state_size = observation_space[STATE_KEY].shape[0]
+        self.state_features = nn.Sequential(nn.Linear(state_size, STATE_FEATURES), nn.ReLU())
+        if goal_scores:
+            self.modulation = nn.Linear(features_dim, LOCAL_CHANNELS)
+            self.score = nn.Conv2d(LOCAL_CHANNELS, 1, kernel_size=1)
+            self.skip = nn.Conv2d(len(self.layer_keys), 1, kernel_size=1)
+
+    def forward(self, observations: dict[str, th.Tensor]) -> th.Tensor:
+        image = self._image(observations)
+        local = self.local(image)
+        features = th.cat(
+            [self.map_features(local), self.state_features(observations[STATE_KEY])], dim=1
+        )
+        if not self.goal_scores:
+            return features
+        modulated = th.relu(local + self.modulation(features)[:, :, None, None])
+        scores = self.score(modulated) + self.skip(image)
+        return th.cat([scores.flatten(1), features], dim=1)
+
+    def _image(self, observations: dict[str, th.Tensor]) -> th.Tensor:
+        """(batch, C, side, side) float: the layers, the unbounded ones log-scaled."""
+        layers = th.stack([observations[k] for k in self.layer_keys], dim=1)
+        scaled = th.log1p(layers.clamp(min=0)) / self.log_high[None, :, None]
+        layers = th.where(self.log_high[None, :, None] > 0, scaled, layers)
+        return layers.reshape(len(layers), len(self.layer_keys), self.side, self.side)
+
+
+def map_layer_keys(observation_space: spaces.Dict) -> list[str]:
+    """The keys of the 2D layers (every entry but ``state``), in the space's order."""
+    keys = [k for k in observation_space.spaces if k != STATE_KEY]
+    shapes = {observation_space[k].shape for k in keys}
+    if len(shapes) != 1 or len(next(iter(shapes))) != 1:
+        raise ValueError(f"expected flat layers of one size, got shapes {sorted(shapes)}")
+    if math.isqrt(next(iter(shapes))[0]) ** 2 != next(iter(shapes))[0]:
+        raise ValueError(f"expected square layers (n = side²), got {next(iter(shapes))[0]}")
+    return keys
+
+
+def _log_highs(observation_space: spaces.Dict, keys: list[str]) -> th.Tensor:
+    """Per layer: log1p(upper bound) where the bound exceeds 1, else 0 (the layer is in [0, 1])."""
+    highs = np.array([float(np.max(observation_space[k].high)) for k in keys])
+    return th.as_tensor(np.where(highs > 1, np.log1p(highs), 0.0), dtype=th.float32)
+
+
+def _local_cnn(channels: int) -> nn.Module:
+    """Full-resolution features: (B, C, s, s) → (B, 16, s, s)."""
+    return nn.Sequential(
+        nn.Conv2d(channels, LOCAL_CHANNELS, kernel_size=5, padding=2),
+        nn.ReLU(),
+        nn.Conv2d(LOCAL_CHANNELS, LOCAL_CHANNELS, kernel_size=3, padding=1),
+        nn.ReLU(),
+    )
+
+
+def _global_cnn(side: int, out: int) -> nn.Module:
+    """Coarse map features: (B, 16, s, s) → (B, out), via s/4 and s/8 resolutions."""
+    coarse = math.ceil(side / 4)
+    coarser = math.ceil(coarse / 2)
+    return nn.Sequential(
+        nn.Conv2d(LOCAL_CHANNELS, 32, kernel_size=4, stride=4, padding=(4 * coarse - side) // 2),
+        nn.ReLU(),
+        nn.Conv2d(32, 32, kernel_size=3, stride=2, padding=1),
+        nn.ReLU(),
+        nn.Flatten(),
+        nn.Linear(32 * coarser * coarser, out),
+        nn.ReLU(),
+    )
+
+
+class GoalLogits(nn.Module):
+    """The action head of the goal-map policies: the first ``n_goals`` latent entries (the
+    extractor's goal scores) are the logits."""
+
+    def __init__(self, n_goals: int):
+        super().__init__()
+        self.n_goals = n_goals
+
+    def forward(self, latent: th.Tensor) -> th.Tensor:
+        return latent[:, : self.n_goals]
+
+
+class _GoalMapMixin:
+    """Replaces the dense action head by :class:`GoalLogits` (needs ``net_arch`` with
+    ``pi=[]`` so the policy latent is the extractor's output)."""
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)
+        self.action_net = GoalLogits(int(self.action_space.n))
+        if self.ortho_init:  # small initial logits, as SB3 does for its action head
+            self.features_extractor.score.apply(partial(self.init_weights, gain=0.01))
+        self.optimizer = self.optimizer_class(
+            self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs
+        )
+
+
+class MaskableGoalMapPolicy(_GoalMapMixin, MaskableMultiInputActorCriticPolicy):
+    """MaskablePPO policy whose logits are the per-goal scores of :class:`MapExtractor`."""
+
+
+class GoalMapPolicy(_GoalMapMixin, MultiInputActorCriticPolicy):
+    """PPO/A2C policy whose logits are the per-goal scores of :class:`MapExtractor`."""

@@ -1,0 +1,289 @@
+"""Train an RL exploration agent with stable-baselines3 (``nbv-gym train``).
+
+The run folder ``out`` receives ``config.toml`` (the resolved :class:`TrainConfig`),
+``system_info.txt``, ``logs/run-<k>/`` (``progress.csv`` and TensorBoard events, one folder per
+start or resume), ``checkpoints/model_<steps>_steps.zip``, ``best_model.zip`` (best mean
+evaluation return), ``eval/evaluations.npz`` and ``final_model.zip``.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import warnings
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+from nbv_gym.config import to_dict
+from nbv_gym.errors import ConfigError, MissingExtraError
+from nbv_gym.rl.config import TrainConfig
+
+#: SB3 algorithm class names → ``module:Class``.
+ALGORITHM_CLASSES = {
+    "MaskablePPO": "sb3_contrib:MaskablePPO",
+    "PPO": "stable_baselines3:PPO",
+    "A2C": "stable_baselines3:A2C",
+}
+FINAL_MODEL = "final_model.zip"
+BEST_MODEL = "best_model.zip"
+
+
+def require_rl() -> None:
+    """Raise :class:`MissingExtraError` unless torch, stable-baselines3 and sb3-contrib import."""
+    for module, package in (
+        ("torch", "torch"),
+        ("stable_baselines3", "stable-baselines3"),
+        ("sb3_contrib", "sb3-contrib"),
+    ):
+        try:
+            __import__(module)
+        except ImportError:
+            raise MissingExtraError(package, "rl") from None
+
+
+def train(
+    config: TrainConfig,
+    out: str | Path,
+    resume: str | Path | None = None,
+    progress_bar: bool = True,
+    verbose: int = 0,
+):
+    """Train per ``config`` into the run folder ``out`` and return the model.
+
+    With ``resume`` (a checkpoint or model zip) training continues from that model's step count
+    until ``config.total_timesteps`` in all.
+    """
+    require_rl()
+    os.environ["NUMBA_NUM_THREADS"] = "1"  # workers share few cores: no nested thread pools
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_run_info(config, out)
+    envs = make_vec_env(config)
+    eval_env = make_eval_env(config) if config.eval_every_steps else None
+    try:
+        model = _load_or_create(config, envs, resume, verbose)
+        model.set_logger(_logger(out, verbose))
+        remaining = config.total_timesteps - model.num_timesteps
+        if remaining <= 0:
+            raise ConfigError(
+                f"total_timesteps: the model has already trained {model.num_timesteps} steps "
+                f"≥ {config.total_timesteps}; raise total_timesteps (--timesteps) to go on."
+            )
+        with warnings.catch_warnings():  # the evaluation env runs in-process on purpose
+            warnings.filterwarnings("ignore", "Training and eval env are not of the same type")
+            model.learn(
+                remaining,
+                callback=_callbacks(config, out, eval_env, verbose),
+                reset_num_timesteps=resume is None,
+                progress_bar=progress_bar,
+            )
+        model.save(out / FINAL_MODEL)
+    finally:
+        envs.close()
+        if eval_env is not None:
+            eval_env.close()
+    return model
+
+
+def make_vec_env(config: TrainConfig, seed_offset: int = 0):
+    """The training ``VecEnv``: ``n_envs`` world-cycling environments, environment ``i`` cycling
+    over ``train_worlds[i::n_envs]`` (all of them, shifted by ``i``, when there are fewer worlds
+    than environments), in subprocesses when ``n_envs`` > 1."""
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    factories = [
+        partial(_env_factory, config, _share(config.train_worlds, i, config.n_envs))
+        for i in range(config.n_envs)
+    ]
+    if config.n_envs == 1:
+        envs = DummyVecEnv(factories)
+    else:
+        envs = SubprocVecEnv(factories, start_method="forkserver")
+    envs.seed(config.seed + seed_offset)
+    return envs
+
+
+def make_eval_env(config: TrainConfig):
+    """The evaluation ``VecEnv``: one environment in this process cycling over ``eval_worlds``
+    (``train_worlds`` when there are none)."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    worlds = config.eval_worlds or config.train_worlds
+    envs = DummyVecEnv([partial(_env_factory, config, worlds)])
+    envs.seed(config.seed + 10_000)
+    return envs
+
+
+def write_run_info(config: TrainConfig, out: Path) -> None:
+    """Write ``config.toml`` and ``system_info.txt`` (platform and library versions)."""
+    from nbv_gym.episode import versions
+
+    (out / "config.toml").write_text(dumps_toml(to_dict(config)))
+    found = versions()
+    for package in ("torch", "stable-baselines3", "sb3-contrib", "tensorboard"):
+        found.update(_version(package))
+    lines = [f"platform: {platform.platform()}", *(f"{k}: {v}" for k, v in found.items())]
+    (out / "system_info.txt").write_text("\n".join(lines) + "\n")
+
+
+def dumps_toml(data: dict[str, Any]) -> str:
+    """``data`` (scalars, lists of scalars and one level of tables) as TOML text."""
+    scalars = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    tables = [
+        f"\n[{k}]\n" + "\n".join(f"{kk} = {_toml_value(vv)}" for kk, vv in v.items())
+        for k, v in data.items()
+        if isinstance(v, dict)
+    ]
+    return "\n".join(scalars) + "\n" + "\n".join(tables) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return repr(value)
+
+
+def _env_factory(config: TrainConfig, worlds: tuple[str, ...]):
+    from nbv_gym.rl.envs import make_world_cycle
+
+    return make_world_cycle(
+        worlds=worlds,
+        noise=config.noise,
+        max_steps=config.max_steps,
+        observation_layers=config.observation_layers,
+        reward_scale=config.reward_scale,
+        snap_invalid=config.algorithm != "MaskablePPO",
+    )
+
+
+def _share(worlds: tuple[str, ...], i: int, n: int) -> tuple[str, ...]:
+    if len(worlds) >= n:
+        return worlds[i::n]
+    shift = i % len(worlds)
+    return worlds[shift:] + worlds[:shift]
+
+
+def algorithm_class(name: str) -> type:
+    """The SB3 class of an algorithm name in :data:`ALGORITHM_CLASSES`."""
+    import importlib
+
+    module, _, cls = ALGORITHM_CLASSES[name].partition(":")
+    return getattr(importlib.import_module(module), cls)
+
+
+def policy_setup(config: TrainConfig) -> tuple[type | str, dict[str, Any]]:
+    """The policy class and ``policy_kwargs`` of ``config.network``."""
+    from nbv_gym.rl.extractor import GoalMapPolicy, MapExtractor, MaskableGoalMapPolicy
+
+    goal_map = config.network == "goal-map"
+    kwargs: dict[str, Any] = {
+        "features_extractor_class": MapExtractor,
+        "features_extractor_kwargs": {
+            "features_dim": config.features_dim,
+            "goal_scores": goal_map,
+        },
+    }
+    if not goal_map:
+        return "MultiInputPolicy", {**kwargs, "net_arch": {"pi": [64], "vf": [64]}}
+    policy = MaskableGoalMapPolicy if config.algorithm == "MaskablePPO" else GoalMapPolicy
+    return policy, {**kwargs, "net_arch": {"pi": [], "vf": [64]}}
+
+
+def _create(config: TrainConfig, envs, verbose: int):
+    policy, policy_kwargs = policy_setup(config)
+    learning = to_dict(config.learning)
+    if config.algorithm == "A2C":
+        for key in ("batch_size", "n_epochs", "clip_range"):
+            learning.pop(key)
+    return algorithm_class(config.algorithm)(
+        policy,
+        envs,
+        policy_kwargs=policy_kwargs,
+        seed=config.seed,
+        device=config.device,
+        verbose=verbose,
+        **learning,
+    )
+
+
+def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbose: int):
+    if resume is None:
+        return _create(config, envs, verbose)
+    from nbv_gym.rl.agent import check_model_file
+
+    check_model_file(Path(resume))
+    cls = algorithm_class(config.algorithm)
+    try:
+        return cls.load(resume, env=envs, device=config.device, verbose=verbose)
+    except (ValueError, KeyError) as error:
+        raise ConfigError(
+            f"Cannot resume {config.algorithm} from {str(resume)!r}: {error}. Resume with the "
+            "config (algorithm, n_envs, observation_layers) the checkpoint was trained with."
+        ) from None
+
+
+def _logger(out: Path, verbose: int):
+    from stable_baselines3.common.logger import configure
+
+    logs = out / "logs"
+    k = 1 + sum(1 for p in logs.glob("run-*") if p.is_dir()) if logs.exists() else 1
+    formats = ["csv", "tensorboard", *(["stdout"] if verbose else [])]
+    try:
+        import tensorboard  # noqa: F401
+    except ImportError:
+        formats.remove("tensorboard")
+    return configure(str(logs / f"run-{k}"), formats)
+
+
+def _callbacks(config: TrainConfig, out: Path, eval_env, verbose: int) -> list:
+    from stable_baselines3.common.callbacks import CheckpointCallback
+
+    callbacks = []
+    if config.checkpoint_every_steps:
+        callbacks.append(
+            CheckpointCallback(
+                _calls(config.checkpoint_every_steps, config.n_envs),
+                out / "checkpoints",
+                name_prefix="model",
+            )
+        )
+    if config.eval_every_steps:
+        callbacks.append(_eval_callback(config, out, eval_env, verbose))
+    return callbacks
+
+
+def _eval_callback(config: TrainConfig, out: Path, eval_env, verbose: int):
+    kwargs = {
+        "n_eval_episodes": config.n_eval_episodes,
+        "eval_freq": _calls(config.eval_every_steps, config.n_envs),
+        "best_model_save_path": str(out),
+        "log_path": str(out / "eval"),
+        "deterministic": True,
+        "verbose": verbose,
+    }
+    if config.algorithm == "MaskablePPO":
+        from sb3_contrib.common.maskable.callbacks import MaskableEvalCallback
+
+        return MaskableEvalCallback(eval_env, use_masking=True, **kwargs)
+    from stable_baselines3.common.callbacks import EvalCallback
+
+    return EvalCallback(eval_env, **kwargs)
+
+
+def _calls(every_steps: int, n_envs: int) -> int:
+    """Callback frequency in ``VecEnv.step`` calls for one event every ``every_steps`` steps."""
+    return max(every_steps // n_envs, 1)
+
+
+def _version(package: str) -> dict[str, str]:
+    from importlib import metadata
+
+    try:
+        return {package: metadata.version(package)}
+    except metadata.PackageNotFoundError:
+        return {package: "not installed"}

@@ -1,0 +1,52 @@
+"""The training config: strict TOML loading, overrides, the shipped example."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from nbv_gym.errors import ConfigError
+from nbv_gym.rl.config import EVAL_WORLDS, TRAIN_WORLDS, TrainConfig, load_train_config
+
+EXAMPLE = Path(__file__).parents[2] / "experiments" / "ppo.toml"
+
+
+def test_example_config_is_the_default_config():
+    assert load_train_config(EXAMPLE) == TrainConfig()
+
+
+def test_default_worlds_train_on_pp1_pp2_and_evaluate_on_pp3():
+    assert {w[:3] for w in TRAIN_WORLDS} == {"pp1", "pp2"} and len(TRAIN_WORLDS) == 8
+    assert {w[:3] for w in EVAL_WORLDS} == {"pp3"} and len(EVAL_WORLDS) == 4
+
+
+def test_overrides_replace_file_values(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_text("total_timesteps = 1000\nn_envs = 1\n")
+    config = load_train_config(path, {"total_timesteps": 64, "seed": None})
+    assert (config.total_timesteps, config.n_envs, config.seed) == (64, 1, 0)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("total_timestep = 5\n", "Unknown key total_timestep"),
+        ("[learning]\nn_step = 5\n", r"Unknown key learning\.n_step"),
+        ('algorithm = "SAC"\n', "algorithm: expected one of MaskablePPO, PPO, A2C"),
+        ('observation_layers = ["gain_nob"]\n', r"observation_layers: unknown layer\(s\)"),
+        ("[learning]\ngamma = 1.5\n", r"learning: gamma: must be in \(0, 1\]"),
+        ("n_envs = 0\n", "n_envs: must be ≥ 1"),
+    ],
+    ids=["unknown-key", "unknown-nested-key", "algorithm", "layer", "gamma", "n_envs"],
+)
+def test_bad_values_are_refused_with_their_key(tmp_path, text, match):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=match):
+        load_train_config(path)
+
+
+def test_missing_file_is_named(tmp_path):
+    with pytest.raises(ConfigError, match="does not exist"):
+        load_train_config(tmp_path / "nope.toml")

@@ -23,22 +23,15 @@ from typing import Any
 
 from nbv_gym.config import check, from_dict, to_dict
 from nbv_gym.errors import ConfigError, UnknownNameError
+from nbv_gym.policies import POLICIES
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
     import tomli as tomllib
 
-#: The seven policies of the paper, in its order.
-PAPER_POLICIES = (
-    "random-frontier",
-    "closest-frontier",
-    "random-free",
-    "nbv-nobs",
-    "nbv-rmin",
-    "nbv-nomega",
-    "nbv-sigma",
-)
+#: The seven policies of the paper, in its order (the registry's order).
+PAPER_POLICIES = tuple(POLICIES)
 
 #: Keys of ``[env]`` the sweep sets itself, as dotted paths.
 _RESERVED_ENV_KEYS = ("simulator.world", "simulator.noise", "simulator.episode.max_steps")

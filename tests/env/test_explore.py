@@ -13,6 +13,7 @@ import pytest
 
 import nbv_gym  # noqa: F401  (registers the environment)
 from nbv_gym.env import ExploreEnv
+from nbv_gym.policies import POLICIES
 from nbv_gym.simulator import InvalidActionError
 
 WORLD = "pp1-cuboids"
@@ -212,18 +213,7 @@ def test_gain_layers_are_zero_outside_the_candidates():
     assert environment.observation_space.contains(observation)
 
 
-@pytest.mark.parametrize(
-    "name",
-    [
-        "random-frontier",
-        "closest-frontier",
-        "random-free",
-        "nbv-nobs",
-        "nbv-rmin",
-        "nbv-nomega",
-        "nbv-sigma",
-    ],
-)
+@pytest.mark.parametrize("name", list(POLICIES))
 def test_every_policy_picks_only_valid_goals(name):
     from nbv_gym.episode import make_env
     from nbv_gym.policies import load_policy

@@ -8,12 +8,19 @@ unknown keys and wrong types with the dotted path of the offending key, at every
 from __future__ import annotations
 
 import dataclasses
+import sys
 import types
 import typing
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any, TypeVar
 
 from nbv_gym.errors import ConfigError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
 
 T = TypeVar("T")
 
@@ -39,6 +46,22 @@ def from_dict(cls: type[T], data: Mapping[str, Any], path: str = "") -> T:
         raise ConfigError(f"{path + ': ' if path else ''}{error}") from None
     except TypeError as error:
         raise ConfigError(f"{path or cls.__name__}: {error}") from None
+
+
+def parse_toml(text: str, source: str) -> dict[str, Any]:
+    """The table of TOML ``text``; :class:`ConfigError` naming ``source`` if it is not TOML."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"{source}: not valid TOML: {error}") from None
+
+
+def read_toml(path: str | Path, kind: str) -> dict[str, Any]:
+    """The table of the TOML file ``path``, a ``kind`` ("Sweep config", …) named in errors."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{kind} {str(path)!r} does not exist.")
+    return parse_toml(path.read_text(), str(path))
 
 
 def to_dict(config: Any) -> dict[str, Any]:

@@ -37,8 +37,6 @@ class OcclusionGrid:
                 f"G's {grid.res} m cells must be a whole number of {voxel_res} m voxels"
             )
         self.grid = grid
-        self.voxel_res = float(voxel_res)
-        self.factor = int(round(factor))
         self.threshold_logodds = logit(occluding_probability)
         self._mask = np.zeros(grid.shape, bool)
 
@@ -57,20 +55,15 @@ class OcclusionGrid:
         """Recompute the ``touched`` (nx, ny, nz) bool cells from ``occupancy_map`` (all cells when
         None); returns the number of cells recomputed.
 
-        Reads only the touched cells' voxels (``OccupancyMap.logodds_blocks``) in chunks of
-        :data:`CHUNK_CELLS` cells, or, with a map that lacks that accessor, the voxels of each x slab
-        of G over the y, z bounding box of the slab's touched cells.
+        Reads only the touched cells' voxels (``OccupancyMap.logodds_blocks``), in chunks of
+        :data:`CHUNK_CELLS` cells.
         """
         touched = np.ones(self.grid.shape, bool) if touched is None else np.asarray(touched, bool)
         if touched.shape != self.grid.shape:
             raise NbvGymError(f"touched must have G's shape {self.grid.shape}, got {touched.shape}")
-        if hasattr(occupancy_map, "logodds_blocks"):
-            cells = np.argwhere(touched)
-            for start in range(0, len(cells), CHUNK_CELLS):
-                self._update_cells(occupancy_map, cells[start : start + CHUNK_CELLS])
-        else:
-            for i in np.flatnonzero(touched.any(axis=(1, 2))):
-                self._update_slab(occupancy_map, int(i), touched[i])
+        cells = np.argwhere(touched)
+        for start in range(0, len(cells), CHUNK_CELLS):
+            self._update_cells(occupancy_map, cells[start : start + CHUNK_CELLS])
         return int(touched.sum())
 
     def _update_cells(self, occupancy_map: OccupancyMap, cells: np.ndarray) -> None:
@@ -78,23 +71,3 @@ class OcclusionGrid:
         blocks = occupancy_map.logodds_blocks(self.grid, cells)
         occluding = (blocks.reshape(len(cells), -1) >= self.threshold_logodds).any(axis=1)
         self._mask[tuple(cells.T)] = occluding  # NaN (unknown) compares False: never occludes
-
-    def _update_slab(self, occupancy_map: OccupancyMap, i: int, touched: np.ndarray) -> None:
-        """Recompute the touched cells of the x slab ``i`` ((ny, nz) bool ``touched``)."""
-        j, k = np.nonzero(touched)
-        lo = np.array([i, j.min(), k.min()])
-        hi = np.array([i + 1, j.max() + 1, k.max() + 1])
-        voxels = occupancy_map.logodds_in(self._voxel_grid(lo, hi))
-        f = self.factor
-        shape = hi - lo
-        blocks = voxels.reshape(shape[0], f, shape[1], f, shape[2], f)
-        occluding = (blocks >= self.threshold_logodds).any(axis=(1, 3, 5))  # NaN (unknown): no
-        box = tuple(slice(a, b) for a, b in zip(lo, hi, strict=True))
-        region = touched[lo[1] : hi[1], lo[2] : hi[2]][None]
-        self._mask[box] = np.where(region, occluding, self._mask[box])
-
-    def _voxel_grid(self, lo: np.ndarray, hi: np.ndarray) -> GridSpec:
-        """The voxel grid covering the cells ``lo ≤ (i, j, k) < hi`` of G."""
-        low = self.grid.low + lo * self.grid.res
-        shape = tuple(int(v) for v in (hi - lo) * self.factor)
-        return GridSpec(tuple(float(v) for v in low), self.voxel_res, shape)

@@ -6,19 +6,12 @@ Top-level keys are :class:`TrainConfig`'s fields; the learning hyper-parameters 
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from nbv_gym.config import check, from_dict
+from nbv_gym.config import check, from_dict, read_toml
 from nbv_gym.env.layers import OPTIONAL_LAYERS
-from nbv_gym.errors import ConfigError
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 #: Algorithms ``nbv-gym train`` supports. MaskablePPO reads the action mask; PPO and A2C do not,
 #: so their environments replace an invalid goal by the nearest valid one (:mod:`nbv_gym.rl.envs`).
@@ -133,12 +126,6 @@ class TrainConfig:
 def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:
     """The :class:`TrainConfig` of a TOML file, with ``overrides`` (top-level keys, e.g. from
     the command line) applied; unknown keys raise :class:`ConfigError` naming them."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"Training config {str(path)!r} does not exist.")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    data = read_toml(path, "Training config")
     data.update({k: v for k, v in (overrides or {}).items() if v is not None})
     return from_dict(TrainConfig, data)

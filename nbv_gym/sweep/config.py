@@ -15,20 +15,14 @@ from __future__ import annotations
 
 import hashlib
 import re
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.config import check, from_dict, to_dict
+from nbv_gym.config import check, from_dict, read_toml, to_dict
 from nbv_gym.errors import ConfigError, UnknownNameError
 from nbv_gym.policies import POLICIES
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 #: The seven policies of the paper, in its order (the registry's order).
 PAPER_POLICIES = tuple(POLICIES)
@@ -156,12 +150,7 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
     """The :class:`SweepConfig` of a TOML file; relative world spec paths are taken relative to
     the file. Raises :class:`ConfigError` naming the file and the offending key."""
     path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"Sweep config {str(path)!r} does not exist (see experiments/*.toml).")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{path}: not valid TOML: {error}") from None
+    data = read_toml(path, "Sweep config (see experiments/*.toml)")
     data.setdefault("name", path.stem)
     if isinstance(data.get("worlds"), list):
         data["worlds"] = [_resolve_world(w, path.parent) for w in data["worlds"]]

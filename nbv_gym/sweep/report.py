@@ -100,13 +100,13 @@ def load_results(results: Path) -> Results:
 
 def _config_facts(path: Path) -> tuple[float, list[str]]:
     """The discovered target and policy order of the folder's sweep.toml (defaults if absent)."""
+    from nbv_gym.config import read_toml
     from nbv_gym.simulator import EpisodeConfig
-    from nbv_gym.sweep.config import tomllib
 
     target = EpisodeConfig().discovered_target
     if not path.exists():
         return target, []
-    data = tomllib.loads(path.read_text())
+    data = read_toml(path, "sweep.toml")
     episode = data.get("env", {}).get("simulator", {}).get("episode", {})
     return float(episode.get("discovered_target", target)), list(data.get("policies", []))
 

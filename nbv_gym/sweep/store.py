@@ -127,12 +127,11 @@ class ResultStore:
         path = self.root / "sweep.toml"
         if not path.exists() or not any(self.runs_dir.glob("*.json")):
             return
-        from nbv_gym.config import from_dict
-        from nbv_gym.sweep.config import tomllib
+        from nbv_gym.config import from_dict, read_toml
 
         try:
-            previous = from_dict(SweepConfig, tomllib.loads(path.read_text()))
-        except (NbvGymError, tomllib.TOMLDecodeError) as error:
+            previous = from_dict(SweepConfig, read_toml(path, "sweep.toml"))
+        except NbvGymError as error:
             raise SweepError(f"{path} is not a valid sweep config ({error}); remove it.") from None
         old, new = previous.results_fingerprint(), config.results_fingerprint()
         changed = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))

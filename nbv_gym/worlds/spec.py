@@ -11,19 +11,13 @@ from __future__ import annotations
 import hashlib
 import importlib.resources
 import json
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.config import check, from_dict, to_dict
+from nbv_gym.config import check, from_dict, parse_toml, to_dict
 from nbv_gym.errors import ConfigError, UnknownNameError
 from nbv_gym.worlds.trees import TreeConfig
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
 
 ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
 
@@ -115,10 +109,7 @@ class WorldSpec:
 
 def parse_spec(text: str, source: str) -> WorldSpec:
     """The :class:`WorldSpec` of TOML ``text``; errors name ``source`` and the offending key."""
-    try:
-        data: dict[str, Any] = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise ConfigError(f"{source}: not valid TOML: {error}") from None
+    data = parse_toml(text, source)
     for key in ("name", "placement", "assets"):
         if key not in data:
             raise ConfigError(f"{source}: missing required key {key!r}")

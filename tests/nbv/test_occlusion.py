@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pytest
 
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.occupancy import OccupancyMap
@@ -30,21 +29,10 @@ def occupancy(voxels: dict[tuple[int, int, int], float]) -> OccupancyMap:
     return OccupancyMap.from_logodds(VOXELS, values, **PARAMS, max_range_m=20.0)
 
 
-class BoxReadsOnly:
-    """A map that only offers ``logodds_in`` (the fallback path of the update)."""
-
-    def __init__(self, occupancy_map: OccupancyMap):
-        self.logodds_in = occupancy_map.logodds_in
-
-
-READERS = pytest.mark.parametrize("reader", [lambda m: m, BoxReadsOnly], ids=["blocks", "boxes"])
-
-
-@READERS
-def test_only_voxels_at_or_above_the_threshold_occlude(reader):
+def test_only_voxels_at_or_above_the_threshold_occlude():
     occupancy_map = occupancy({(15, 5, 3): 0.9, (25, 15, 12): 0.79, (5, 25, 19): 0.97})
     grid = OcclusionGrid(G, 0.1, 0.8)
-    grid.update(reader(occupancy_map), None)
+    grid.update(occupancy_map, None)
     expected = np.zeros(G.shape, bool)
     expected[1, 0, 0] = True  # voxel (15, 5, 3) lies in G cell (1, 0, 0)
     expected[0, 2, 1] = True  # voxel (5, 25, 19): cell (0, 2, 1)
@@ -58,11 +46,10 @@ def test_unknown_and_free_space_do_not_occlude():
     assert visible_cells(grid.mask, (0, 1), G, 0.5, 0.5, 10.0).sum() == G.size - 1
 
 
-@READERS
-def test_update_recomputes_only_the_touched_cells(reader):
+def test_update_recomputes_only_the_touched_cells():
     grid = OcclusionGrid(G, 0.1, 0.8)
-    grid.update(reader(occupancy({(15, 5, 3): 0.9})), None)
-    later = reader(occupancy({(35, 25, 15): 0.9}))  # (1, 0, 0) emptied, (3, 2, 1) filled
+    grid.update(occupancy({(15, 5, 3): 0.9}), None)
+    later = occupancy({(35, 25, 15): 0.9})  # (1, 0, 0) emptied, (3, 2, 1) filled
     touched = np.zeros(G.shape, bool)
     touched[3, 2, 1] = True
     assert grid.update(later, touched) == 1

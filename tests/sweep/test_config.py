@@ -8,14 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from nbv_gym.config import from_dict, to_dict
+from nbv_gym.config import from_dict, parse_toml, to_dict
 from nbv_gym.errors import ConfigError
 from nbv_gym.sweep.config import (
     PAPER_POLICIES,
     SweepConfig,
     dumps_toml,
     load_sweep_config,
-    tomllib,
 )
 
 EXPERIMENTS = Path(__file__).parents[2] / "experiments"
@@ -60,7 +59,7 @@ def test_resolved_config_round_trips_through_toml():
         env={"simulator": {"episode": {"discovered_target": 0.5}}, "nbv": {"alpha": 1.5}},
     )
     text = dumps_toml(to_dict(config))
-    assert from_dict(SweepConfig, tomllib.loads(text)) == config
+    assert from_dict(SweepConfig, parse_toml(text, "test")) == config
     assert config.env_config("pp1-cuboids", 2).simulator.episode.discovered_target == 0.5
 
 

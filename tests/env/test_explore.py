@@ -144,10 +144,12 @@ def test_termination_fires_exactly_when_discovered_crosses_the_target():
     assert "discovered" in infos[-1]["end_reason"]
 
 
-def test_truncation_at_max_steps(env):
-    _, rewards, _, infos = rollout(env, seed=5, n_steps=10)
-    if infos[-1]["discovered"] < 0.70:
-        assert len(rewards) == 6 and "max_steps" in infos[-1]["end_reason"]
+def test_truncation_at_max_steps():
+    unreachable = {
+        "simulator": {"world": WORLD, "episode": {"max_steps": 3, "discovered_target": 1.0}}
+    }
+    _, rewards, _, infos = rollout(ExploreEnv(config=unreachable), seed=5, n_steps=10)
+    assert len(rewards) == 3 and "max_steps = 3" in infos[-1]["end_reason"]
 
 
 def test_runs_in_gymnasium_async_vector_env():

@@ -161,6 +161,7 @@ class ExploreEnv(gymnasium.Env):
             "discovered": outcome.discovered,
             "q": quality.q,
             "q_paper": quality.q_paper,
+            "q_observed": quality.q_observed,
             "cov": quality.cov,
             "l1": quality.l1,
             "delta_q": outcome.delta_q,

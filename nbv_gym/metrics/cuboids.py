@@ -14,7 +14,11 @@ Per cuboid (``002_…`` §III-A, the authors' code for the unobserved case):
   probability ``> p`` at a centre-to-centre distance ``<= d`` metres, searched inside the same cuboid.
 - ``L1``: the sum of p over the cuboid.
 
-Qualities, each a mean over all cuboids (``n_occ + n_empty``):
+Qualities, each a mean over the cuboids of the **comparison volume** (SPEC §5, paper §III-A's
+``B_box1 ∩ B_box2``): by default the cuboids that intersect the ground truth's bounding box — the
+reconstruction's box is the grid itself — so that the empty sky above short assets, which no scan
+can observe, does not dilute the scores. ``CuboidConfig.volume = "grid"`` compares over every
+cuboid instead. Summaries carry the same figures over the observed cuboids of the volume too.
 
 - ``Q`` (*ours*, the reward): cov(0.7, 0.15) on ``U_occ``; on ``U_empty``
   ``clip((0.5·n³ − L1) / ((0.5 − 0.12)·n³), 0, 1)`` — 1 at the clamping floor 0.12, 0 when unknown.
@@ -38,6 +42,9 @@ from nbv_gym.metrics import MetricInputError
 #: The four (p, d_m) coverage settings of the papers; the last one is the default of Q.
 COV_SETTINGS: tuple[tuple[float, float], ...] = ((0.8, 0.05), (0.8, 0.10), (0.7, 0.10), (0.7, 0.15))
 
+#: The comparison volumes: the cuboids intersecting the ground truth's bounding box, or all of G.
+VOLUMES = ("ground_truth_box", "grid")
+
 
 def benchmark_grid() -> GridSpec:
     """The voxel box the benchmark's metrics cover: G's extent at 0.1 m, shape (600, 600, 60)."""
@@ -52,7 +59,9 @@ class CuboidConfig:
     coverage distances into voxel offsets); ``unknown_low``/``unknown_high``: the open probability
     band of an unobserved cuboid; ``cov_settings``: (p, d metres) pairs; ``q_setting``: index of the
     pair used by Q; ``clamp_min_p``: the map's lower clamp, the best empty-cuboid p;
-    ``unobserved_wd``: WD_occ of an unobserved cuboid.
+    ``unobserved_wd``: WD_occ of an unobserved cuboid; ``volume``: the comparison volume, one of
+    :data:`VOLUMES` (``"ground_truth_box"``: the cuboids that intersect the ground truth's
+    bounding box, the default; ``"grid"``: every cuboid).
     """
 
     cuboid_voxels: int = 10
@@ -63,8 +72,10 @@ class CuboidConfig:
     q_setting: int = 3
     clamp_min_p: float = 0.12
     unobserved_wd: float = 100.0
+    volume: str = "ground_truth_box"
 
     def __post_init__(self):
+        check(self.volume in VOLUMES, "volume", f"expected one of {VOLUMES}, got {self.volume!r}")
         check(self.cuboid_voxels >= 1, "cuboid_voxels", f"must be >= 1, got {self.cuboid_voxels}")
         check(self.voxel_size_m > 0, "voxel_size_m", f"must be > 0, got {self.voxel_size_m}")
         check(
@@ -105,10 +116,12 @@ class CuboidConfig:
 
 @dataclass(frozen=True)
 class QualitySummary:
-    """Scalar qualities of a whole grid.
+    """Scalar qualities over the comparison volume.
 
     ``q``, ``q_paper`` in [0, 1]; ``cov``: mean cov over U_occ per setting (same order as
-    ``CuboidConfig.cov_settings``); ``l1``: mean L1 over U_empty; counts of cuboids.
+    ``CuboidConfig.cov_settings``); ``l1``: mean L1 over U_empty; counts of the volume's cuboids
+    (``n_occ + n_empty`` is the volume). The ``*_observed`` fields are the same figures over the
+    volume's observed cuboids only (NaN while none is observed).
     """
 
     q: float
@@ -118,14 +131,19 @@ class QualitySummary:
     n_occ: int
     n_empty: int
     n_observed: int
+    q_observed: float
+    q_paper_observed: float
+    cov_observed: tuple[float, ...]
+    l1_observed: float
 
 
 @dataclass
 class CuboidMetrics:
     """Per-cuboid metrics, each array of the cuboid grid's shape ``(cx, cy, cz)``.
 
-    ``u_occ``/``observed`` bool; ``cov`` (s, cx, cy, cz) float64 (NaN on U_empty); ``l1`` float64
-    (all cuboids); ``quality`` float64: the per-cuboid term of Q.
+    ``u_occ``/``observed``/``volume`` bool (``volume``: the comparison volume); ``cov``
+    (s, cx, cy, cz) float64 (NaN on U_empty); ``l1`` float64 (all cuboids); ``quality`` float64:
+    the per-cuboid term of Q.
     """
 
     u_occ: BoolArray
@@ -134,20 +152,36 @@ class CuboidMetrics:
     l1: FloatArray
     quality: FloatArray
     config: CuboidConfig = field(default_factory=CuboidConfig)
+    volume: BoolArray | None = None
+
+    def __post_init__(self):
+        if self.volume is None:
+            self.volume = np.ones(self.u_occ.shape, bool)
 
     def summary(self) -> QualitySummary:
-        """The grid's :class:`QualitySummary`."""
-        occ, empty = self.u_occ, ~self.u_occ
-        cov_means = tuple(float(c[occ].mean()) if occ.any() else float("nan") for c in self.cov)
+        """The :class:`QualitySummary` over the comparison volume and its observed part."""
+        every = self._means(self.volume)
+        seen = self._means(self.volume & self.observed)
+        occ = self.u_occ & self.volume
         return QualitySummary(
-            q=float(self.quality.mean()),
-            q_paper=q_paper(self.cov[self.config.q_setting][occ], self.l1[empty], self.config),
-            cov=cov_means,
-            l1=float(self.l1[empty].mean()) if empty.any() else float("nan"),
+            *every,
             n_occ=int(occ.sum()),
-            n_empty=int(empty.sum()),
-            n_observed=int(self.observed.sum()),
+            n_empty=int((self.volume & ~self.u_occ).sum()),
+            n_observed=int((self.volume & self.observed).sum()),
+            q_observed=seen[0],
+            q_paper_observed=seen[1],
+            cov_observed=seen[2],
+            l1_observed=seen[3],
         )
+
+    def _means(self, where: BoolArray) -> tuple[float, float, tuple[float, ...], float]:
+        """(Q, Q_paper, cov per setting, L1) over the cuboids ``where``; NaN where a set is empty."""
+        occ, empty = where & self.u_occ, where & ~self.u_occ
+        q = float(self.quality[where].mean()) if where.any() else float("nan")
+        paper = q_paper(self.cov[self.config.q_setting][occ], self.l1[empty], self.config)
+        cov = tuple(float(c[occ].mean()) if occ.any() else float("nan") for c in self.cov)
+        l1 = float(self.l1[empty].mean()) if empty.any() else float("nan")
+        return q, paper, cov, l1
 
 
 def cuboid_shape(grid_shape: tuple[int, ...], cuboid_voxels: int) -> tuple[int, int, int]:
@@ -183,6 +217,23 @@ def cuboid_view(grid: np.ndarray, cuboid_voxels: int) -> np.ndarray:
 def occupied_cuboids(gt: BoolArray, cuboid_voxels: int) -> BoolArray:
     """(cx, cy, cz) bool: U_occ, the cuboids whose ground truth holds an occupied voxel."""
     return cuboid_view(np.asarray(gt, bool), cuboid_voxels).any(axis=(3, 4, 5))
+
+
+def comparison_volume(u_occ: BoolArray, volume: str = "ground_truth_box") -> BoolArray:
+    """(cx, cy, cz) bool: the cuboids over which qualities are compared (see :data:`VOLUMES`).
+
+    ``"ground_truth_box"``: the cuboids that intersect the ground truth's bounding box, i.e. the
+    box spanned by the cuboids of ``u_occ`` (a voxel box's bounding box in cuboid units); all
+    False when the ground truth is empty. ``"grid"``: every cuboid.
+    """
+    if volume == "grid":
+        return np.ones(u_occ.shape, bool)
+    inside = np.zeros(u_occ.shape, bool)
+    if u_occ.any():
+        cells = np.argwhere(u_occ)
+        low, high = cells.min(axis=0), cells.max(axis=0) + 1
+        inside[low[0] : high[0], low[1] : high[1], low[2] : high[2]] = True
+    return inside
 
 
 def coverage_offsets(distance_m: float, voxel_size_m: float) -> IntArray:
@@ -255,6 +306,7 @@ class QualityTracker:
         self.grid_shape = gt.shape
         self.shape = cuboid_shape(gt.shape, n)
         self.u_occ = occupied_cuboids(gt, n)
+        self.volume = comparison_volume(self.u_occ, self.config.volume)
         self._gt_start, self._gt_voxels = _ground_truth_lists(gt, n)
         self._offsets, self._offset_d2 = _stencil(self.config)
         self._thresholds = np.array([p for p, _ in self.config.cov_settings])
@@ -316,7 +368,9 @@ class QualityTracker:
         l1 = self._l1.reshape(self.shape).copy()
         quality = np.where(self.u_occ, cov[self.config.q_setting], empty_quality(l1, self.config))
         observed = self._observed.reshape(self.shape).copy()
-        return CuboidMetrics(self.u_occ.copy(), observed, cov, l1, quality, self.config)
+        return CuboidMetrics(
+            self.u_occ.copy(), observed, cov, l1, quality, self.config, self.volume.copy()
+        )
 
     def _flat_indices(self, touched: IntArray | None) -> IntArray:
         size = int(np.prod(self.shape))

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import astuple
+
 import numpy as np
 import pytest
 
+from nbv_gym.errors import ConfigError
 from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.cuboids import (
     CuboidConfig,
@@ -91,14 +94,44 @@ def test_q_paper_is_equation_3_with_min_max_normalisation():
     assert q_paper([0.4, 0.4], [], config) == pytest.approx(0.4)
 
 
-def test_q_is_the_mean_over_all_cuboids():
+def test_q_over_the_whole_grid_is_the_mean_over_all_cuboids():
     gt = np.zeros((20, 10, 10), bool)
     gt[2, 2, 2] = gt[3, 3, 3] = True  # cuboid 0 occupied, cuboid 1 empty
     prob = _grid(gt.shape, 0.12)
     prob[2, 2, 2] = 0.9  # cov(0.7, 0.15) = 1/2
-    summary = evaluate_cuboids(prob, gt).summary()
+    summary = evaluate_cuboids(prob, gt, CuboidConfig(volume="grid")).summary()
     empty_l1 = 0.12 * 1000
     assert summary.q == pytest.approx((0.5 + (500 - empty_l1) / 380) / 2, rel=1e-6)
+    # the default volume is the ground truth's bounding box: cuboid 0 alone
+    assert evaluate_cuboids(prob, gt).summary().q == pytest.approx(0.5)
+
+
+def test_comparison_volume_is_the_ground_truth_bounding_box_in_cuboids():
+    # 5 × 4 × 3 cuboids; occupied voxels in cuboids (1, 0, 0) and (2, 2, 1): their box spans
+    # x 1..2, y 0..2, z 0..1 → 2 · 3 · 2 = 12 cuboids, of which 2 in U_occ and 10 empty.
+    gt = np.zeros((50, 40, 30), bool)
+    gt[15, 5, 5] = gt[25, 25, 15] = True
+    prob = _grid(gt.shape, 0.5)  # unknown everywhere …
+    prob[10:20, 0:10, 0:10] = 0.12  # … but for one observed empty-looking cuboid of U_occ
+    prob[15, 5, 5] = 0.9  # whose ground-truth voxel is covered
+    prob[40:50, 30:40, 20:30] = 0.12  # observed, outside the box: ignored
+    metrics = evaluate_cuboids(prob, gt)
+    assert metrics.volume.sum() == 12
+    assert metrics.volume[1:3, 0:3, 0:2].all()
+    summary = metrics.summary()
+    assert (summary.n_occ, summary.n_empty, summary.n_observed) == (2, 10, 1)
+    assert summary.q == pytest.approx(1 / 12)  # one covered cuboid, 11 unknown (quality 0)
+    assert summary.q_observed == pytest.approx(1.0)
+    assert summary.cov_observed[3] == pytest.approx(1.0) and summary.cov[3] == pytest.approx(0.5)
+    assert np.isnan(summary.l1_observed) and summary.l1 == pytest.approx(500.0)
+    whole = evaluate_cuboids(prob, gt, CuboidConfig(volume="grid")).summary()
+    assert whole.n_occ + whole.n_empty == 60 and whole.n_observed == 2
+    assert whole.q == pytest.approx(2 / 60)
+
+
+def test_unknown_volume_is_refused_naming_the_key():
+    with pytest.raises(ConfigError, match="volume"):
+        CuboidConfig(volume="sky")
 
 
 def test_incremental_updates_equal_a_full_recomputation_exactly():
@@ -115,7 +148,7 @@ def test_incremental_updates_equal_a_full_recomputation_exactly():
             block[...] = rng.choice([0.12, 0.3, 0.75, 0.85, 0.97], block.shape)
         incremental = tracker.update(prob, cuboids)
     full = QualityTracker(gt).update(prob)
-    assert incremental == full  # every field, bit for bit
+    np.testing.assert_equal(astuple(incremental), astuple(full))  # every field, bit for bit (NaN == NaN)
     assert 0 < full.q < 1
 
 
@@ -144,15 +177,17 @@ def test_update_blocks_equals_update_on_the_whole_grid():
     gt = np.zeros((20, 20, 10), bool)
     gt[:10, :10] = rng.random((10, 10, 10)) < 0.05  # one occupied cuboid, three empty ones
     prob = np.where(rng.random(gt.shape) < 0.5, 0.5, rng.random(gt.shape)).astype(np.float32)
-    full = QualityTracker(gt)
+    whole = CuboidConfig(volume="grid")
+    full = QualityTracker(gt, whole)
     full.update(prob)
-    by_blocks = QualityTracker(gt)
+    by_blocks = QualityTracker(gt, whole)
     touched = np.array([0, 3, 5, 7])
     blocks = np.stack([prob[i * 10 : i * 10 + 10, j * 10 : j * 10 + 10, :] for i in (0, 1)
                        for j in (0, 1)])[[0, 1, 2, 3]]  # fmt: skip
     # cuboid grid (2, 2, 1): flat index i·2 + j; recompute all four through blocks
     summary = by_blocks.update_blocks(np.arange(4), blocks)
-    assert summary == full.summary() and summary.n_occ == 1 and summary.n_empty == 3
+    np.testing.assert_equal(astuple(summary), astuple(full.summary()))
+    assert summary.n_occ == 1 and summary.n_empty == 3
     np.testing.assert_array_equal(by_blocks.metrics().l1, full.metrics().l1)
     with pytest.raises(MetricInputError, match="probability blocks"):
         by_blocks.update_blocks(touched, blocks[:2])

@@ -129,35 +129,33 @@ def _wait_for_workers(address: str, certificates, count: int) -> None:
         client.wait_for_workers(count, timeout=START_TIMEOUT_S)
 
 
+def _scheduler_address(scheduler_file: Path, scheduler: subprocess.Popen, log: Path) -> str:
+    """The address the scheduler wrote to ``scheduler_file``, once it has."""
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while time.monotonic() < deadline:
+        assert scheduler.poll() is None, log.read_text()
+        try:
+            return json.loads(scheduler_file.read_text())["address"]
+        except (FileNotFoundError, json.JSONDecodeError, KeyError):
+            time.sleep(0.2)
+    raise TimeoutError(f"the scheduler did not start in {START_TIMEOUT_S} s: {log.read_text()}")
+
+
 @pytest.fixture
 def tls_cluster(tmp_path):
     """A TLS scheduler and two one-thread workers on 127.0.0.1 (free ports chosen by the
     scheduler); yields the scheduler address and the cluster's certificates."""
     certificates = make_certificates(tmp_path / "certs", "nbv-gym test CA")
     scheduler_file = tmp_path / "scheduler.json"
-    processes = [
-        _dask(
-            "scheduler", "--host", "127.0.0.1", "--port", "0", "--protocol", "tls",
-            "--no-dashboard", "--scheduler-file", str(scheduler_file), *_tls_options(certificates),
-            log=tmp_path / "scheduler.log",
-        )  # fmt: skip
-    ]
+    tls = _tls_options(certificates)
+    serve = ["--host", "127.0.0.1", "--no-dashboard", *tls]
+    scheduler = ["scheduler", "--port", "0", "--protocol", "tls", *serve]
+    processes = [_dask(*scheduler, "--scheduler-file", str(scheduler_file), log=tmp_path / "s.log")]
     try:
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while not scheduler_file.exists() and time.monotonic() < deadline:
-            assert processes[0].poll() is None, (tmp_path / "scheduler.log").read_text()
-            time.sleep(0.2)
-        time.sleep(0.2)  # the file is written in one go, but give it a moment
-        address = json.loads(scheduler_file.read_text())["address"]
+        address = _scheduler_address(scheduler_file, processes[0], tmp_path / "s.log")
         assert address.startswith("tls://127.0.0.1:")
-        for i in range(2):
-            processes.append(
-                _dask(
-                    "worker", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
-                    "--nthreads", "1", "--no-dashboard", "--no-nanny", *_tls_options(certificates),
-                    log=tmp_path / f"worker{i}.log",
-                )  # fmt: skip
-            )
+        worker = ["worker", address, "--nthreads", "1", "--no-nanny", *serve]
+        processes += [_dask(*worker, log=tmp_path / f"worker{i}.log") for i in range(2)]
         _wait_for_workers(address, certificates, 2)
         yield address, certificates
     finally:
@@ -169,8 +167,8 @@ def test_a_sweep_runs_on_a_tls_cluster_and_clients_without_its_certificate_are_r
 ):
     address, certificates = tls_cluster
     config = make_config(tmp_path, policies=["closest-frontier"], noise=[0], max_steps=2)
-    command = [sys.executable, "-m", "nbv_gym", "sweep", str(config), "--out", str(tmp_path / "out")]
-    command += ["--scheduler", address, "--no-report", "--no-progress"]
+    command = [sys.executable, "-m", "nbv_gym", "sweep", str(config), "--scheduler", address]
+    command += ["--out", str(tmp_path / "out"), "--no-report", "--no-progress"]
 
     done = _run(command, _tls_environment(certificates))
     assert done.returncode == 0, done.stderr

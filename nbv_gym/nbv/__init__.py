@@ -7,11 +7,12 @@ from nbv_gym.nbv.gains import (
     goal_centres_xy,
     predict_gains,
     predict_gains_arrays,
+    realised_gains,
     swept_sectors,
 )
 from nbv_gym.nbv.occlusion import OcclusionGrid
 from nbv_gym.nbv.predictor import CANDIDATES_LAYER, GainPredictor
-from nbv_gym.nbv.visibility import visible_cells
+from nbv_gym.nbv.visibility import VISIBILITY_MODELS, SightModel, credited_cells
 
 __all__ = [
     "CANDIDATES_LAYER",
@@ -23,6 +24,9 @@ __all__ = [
     "goal_centres_xy",
     "predict_gains",
     "predict_gains_arrays",
+    "realised_gains",
     "swept_sectors",
-    "visible_cells",
+    "VISIBILITY_MODELS",
+    "SightModel",
+    "credited_cells",
 ]

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from nbv_gym.config import check
+from nbv_gym.nbv.visibility import VISIBILITY_MODELS, SightModel
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,11 @@ class NbvConfig:
         alpha: weight of the travel cost in the utility E[I] − α · cost.
         uniform_tolerance: gains are near-uniform over the candidates when max / min − 1 ≤ this.
         n_sectors: azimuth sectors of n_Ω (the statistics grid's).
+        visibility: which cells a candidate is credited with, one of
+            :data:`~nbv_gym.nbv.visibility.VISIBILITY_MODELS` (``authors``, ``sphere``, ``fov``,
+            ``physical``; see :mod:`nbv_gym.nbv.visibility`).
+        elevation_min_rad, elevation_max_rad: the lidar's vertical field of view, used by the
+            ``fov`` and ``physical`` models, radians.
     """
 
     search_range_m: float = 20.0
@@ -43,8 +49,22 @@ class NbvConfig:
     alpha: float = 2.0
     uniform_tolerance: float = 0.05
     n_sectors: int = 32
+    visibility: str = "physical"
+    elevation_min_rad: float = -0.26
+    elevation_max_rad: float = 0.26
 
     def __post_init__(self) -> None:
+        check(
+            self.visibility in VISIBILITY_MODELS,
+            "visibility",
+            f"expected one of {', '.join(VISIBILITY_MODELS)}, got {self.visibility!r}",
+        )
+        check(
+            -math.pi / 2 < self.elevation_min_rad <= self.elevation_max_rad < math.pi / 2,
+            "elevation_min_rad",
+            "need −π/2 < elevation_min_rad ≤ elevation_max_rad < π/2, got "
+            f"{self.elevation_min_rad}, {self.elevation_max_rad}",
+        )
         for name in ("search_range_m", "sensor_range_m", "gain_floor", "unobserved_r_min_m"):
             value = getattr(self, name)
             check(math.isfinite(value) and value > 0, name, f"must be > 0, got {value}")
@@ -81,3 +101,10 @@ class NbvConfig:
             f"must be ≥ sensor_range_m ({self.sensor_range_m}) so a first observation always "
             f"gains, got {self.unobserved_r_min_m}",
         )
+
+    def sight_model(self) -> SightModel:
+        """The geometry of this config's visibility model."""
+        return SightModel(
+            self.visibility, self.sensor_height_m, self.min_range_m, self.sensor_range_m,
+            self.elevation_min_rad, self.elevation_max_rad,
+        )  # fmt: skip

@@ -1,8 +1,8 @@
 """Predicted viewpoint gains of candidate goals (SPEC §4, paper §III-C, the authors' code).
 
-For a candidate goal T, every cell C of G that is visible from T's sensor
-(:mod:`nbv_gym.nbv.visibility`) is predicted to receive one more observation from T; the gain of a
-cell compares its statistic now (b) with the predicted one (â), with the floor f (1e-3):
+For a candidate goal T, every cell C of G that T is credited with under the config's visibility
+model (:mod:`nbv_gym.nbv.visibility`) is predicted to receive one more observation from T; the
+gain of a cell compares its statistic now (b) with the predicted one (â), with the floor f (1e-3):
 
 - n_obs: ``ln(â / max(b, f))`` with ``â = b + 1`` — a first observation gains ``ln(1 / f)``.
 - r_min: ``b − â`` if ``â < b`` else 0, with ``b`` = ``unobserved_r_min_m`` (100 m) for a
@@ -15,7 +15,12 @@ cell compares its statistic now (b) with the predicted one (â), with the floor 
   counter-clockwise from R to T (the authors' code picks a side at random). When R lies on C's
   vertical axis (its azimuth is undefined) only T's sector is set.
 - σ_θ: ``ln(max(â, f) / max(b, f))`` if ``â > b`` else 0, where ``â`` is the spherical variance
-  after adding ``u = (T − C) / |T − C|`` to Σu and 1 to n_obs (so a first observation gains 0).
+  after adding ``u = (T − C) / |T − C|`` to Σu and 1 to n_obs (so a first observation gains 0;
+  under the ``authors`` model, as in their code, a first observation's â is shifted to 0.5 and
+  gains ``ln(0.5 / f)``).
+
+:func:`realised_gains` evaluates the same per-cell formulas on the statistics before and after a
+real scan, so a prediction can be checked against what the scan achieved.
 
 E[I(a_T)] of a statistic is the sum of its cell gains over the visible cells (``aggregate="sum"``,
 authors' code) or their mean (``"mean"``, the paper; 0 when nothing is visible).
@@ -37,7 +42,7 @@ from nbv_gym.errors import NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.statistics import ViewpointStatistics, spherical_variance
 from nbv_gym.nbv.config import NbvConfig
-from nbv_gym.nbv.visibility import mark_occluded, occluder_cells, sight_lines
+from nbv_gym.nbv.visibility import credited_rays, occluder_cells, sight_lines
 
 #: The gain layers, in the order of the kernel's output columns.
 GAIN_LAYERS: tuple[str, ...] = ("gain_nobs", "gain_rmin", "gain_nomega", "gain_sigma")
@@ -133,14 +138,17 @@ def predict_gains_arrays(
     candidates = _candidate_cells(candidates, nx, ny)
     table = cell_table(n_obs, r_min, sector_mask, sum_u, config)
     robot_azimuth, robot_on_axis = _robot_azimuths(grid, robot_xy)
-    lines = sight_lines(grid, config.sensor_height_m, config.min_range_m, config.sensor_range_m)
+    model = config.sight_model()
+    lines = sight_lines(grid, model)
+    occluding = np.asarray(_checked(occluding, grid.shape, "occluding"), bool)
     wanted = np.array([name in layers for name in GAIN_LAYERS])
     sums, n_visible = _gains_kernel(
-        candidates, occluder_cells(_checked(occluding, grid.shape, "occluding")),
+        candidates, model.model == "physical", occluder_cells(occluding), occluding.ravel(),
         lines.reach, nz, lines.crossing_start, lines.crossing_rays, lines.dx_start,
-        lines.dx, lines.dy, lines.k, lines.range_m, lines.unit, lines.azimuth,
-        nx, ny, table, robot_azimuth, robot_on_axis, config.n_sectors,
-        _log_floor_table(config.gain_floor), config.gain_floor, wanted,
+        lines.dx, lines.dy, lines.k, lines.range_m, lines.unit, lines.azimuth, lines.aimed,
+        lines.through_start, lines.through_rays, nx, ny, table, robot_azimuth, robot_on_axis,
+        config.n_sectors, _log_floor_table(config.gain_floor), config.gain_floor,
+        _first_sigma(config), wanted,
     )  # fmt: skip
     if config.aggregate == "mean":
         sums = sums / np.maximum(n_visible, 1)[:, None]
@@ -151,6 +159,36 @@ def predict_gains_arrays(
             layer[candidates[:, 0], candidates[:, 1]] = sums[:, column]
             out[name] = layer
     return out
+
+
+def realised_gains(
+    before: tuple[np.ndarray, ...], after: tuple[np.ndarray, ...], config: NbvConfig
+) -> dict[str, float]:
+    """The gain a real scan achieved, per statistic: the per-cell formulas of the prediction
+    applied to the statistics before and after it, aggregated like the prediction.
+
+    ``before`` and ``after`` are ``(n_obs, r_min, sector_mask, sum_u)`` as in :func:`cell_table`.
+    Keys are :data:`GAIN_LAYERS`. With ``aggregate="mean"`` the sum is divided by the number of
+    cells whose n_obs grew.
+    """
+    b, a = cell_table(*before, config), cell_table(*after, config)
+    floor = config.gain_floor
+    n_b, n_a = b[:, _N_NEXT] - 1.0, a[:, _N_NEXT] - 1.0
+    grew = n_a > n_b
+    gains = {
+        "gain_nobs": np.log(n_a[grew] / np.maximum(n_b[grew], floor)).sum(),
+        "gain_rmin": np.maximum(b[:, _RMIN] - a[:, _RMIN], 0.0).sum(),
+        "gain_nomega": _log_growth(b[:, _NOMEGA], a[:, _NOMEGA], floor),
+        "gain_sigma": _log_growth(b[:, _SIGMA], a[:, _SIGMA], floor),
+    }
+    scale = 1.0 / max(int(grew.sum()), 1) if config.aggregate == "mean" else 1.0
+    return {name: float(value * scale) for name, value in gains.items()}
+
+
+def _log_growth(before: np.ndarray, after: np.ndarray, floor: float) -> float:
+    """Σ ``ln(max(a, f) / max(b, f))`` over the cells where the value grew (a > b)."""
+    grew = after > before
+    return float((np.log(np.maximum(after[grew], floor)) - np.log(np.maximum(before[grew], floor))).sum())
 
 
 def cell_table(
@@ -242,6 +280,11 @@ def _robot_azimuths(grid: GridSpec, robot_xy: FloatArray) -> tuple[np.ndarray, n
     return azimuth, np.hypot(offset[..., 0], offset[..., 1]) < 1e-9
 
 
+def _first_sigma(config: NbvConfig) -> float:
+    """σ_θ predicted after a first observation: 0, or 0.5 under the ``authors`` model."""
+    return 0.5 if config.visibility == "authors" else 0.0
+
+
 def _log_floor_table(floor: float) -> np.ndarray:
     """(33,) float64 ``ln(max(a, f))`` for a = 0 … 32 sectors."""
     return np.log(np.maximum(np.arange(33, dtype=np.float64), floor))
@@ -304,49 +347,57 @@ def _popcount64(v):
 
 @njit(cache=True)
 def _gains_kernel(
-    candidates, occluders, reach, nz, crossing_start, crossing_rays, dx_start,
-    dx, dy, k, range_m, unit, azimuth,
-    nx, ny, table, robot_azimuth, robot_on_axis, n_sectors, ln_count, floor, wanted,
+    candidates, physical, occluders, occluding, reach, nz, crossing_start, crossing_rays,
+    dx_start, dx, dy, k, range_m, unit, azimuth, aimed, through_start, through_rays,
+    nx, ny, table, robot_azimuth, robot_on_axis, n_sectors, ln_count, floor, first_sigma, wanted,
 ):  # fmt: skip
     """(m, 4) float64 summed gains per candidate (columns as :data:`GAIN_LAYERS`) and (m,) int64
-    number of visible cells."""
+    number of credited cells."""
     m = candidates.shape[0]
     sums = np.zeros((m, 4))
     n_visible = np.zeros(m, np.int64)
     stamps = np.full(len(dx), -1, np.int64)
+    visits = np.full(nx * ny * nz, -1, np.int64)
+    rays = np.empty(len(dx), np.int64)
     want_nobs, want_rmin, want_nomega, want_sigma = wanted[0], wanted[1], wanted[2], wanted[3]
     for c in range(m):
         ci, cj = candidates[c, 0], candidates[c, 1]
-        mark_occluded(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, stamps, c)
+        n = credited_rays(ci, cj, physical, occluders, occluding, reach, nz, crossing_start,
+                          crossing_rays, dx_start, dx, dy, k, aimed, through_start, through_rays,
+                          nx, ny, stamps, visits, c, rays)  # fmt: skip
         g_nobs = g_rmin = g_nomega = g_sigma = 0.0
-        count = 0
-        for a in range(max(-reach, -ci), min(reach, nx - 1 - ci) + 1):
-            i = ci + a
-            for r in range(dx_start[a + reach], dx_start[a + reach + 1]):
-                j = cj + dy[r]
-                if j < 0 or j >= ny or stamps[r] == c:
-                    continue
-                cell = (i * ny + j) * nz + k[r]
-                count += 1
-                if want_nobs:
-                    g_nobs += table[cell, _NOBS_GAIN]
-                if want_rmin:
-                    b = table[cell, _RMIN]
-                    if range_m[r] < b:
-                        g_rmin += b - range_m[r]
-                if want_nomega:
-                    sweep = _sweep(robot_azimuth[i, j], azimuth[r], robot_on_axis[i, j], n_sectors)
-                    n_after = _popcount64(np.int64(table[cell, _SECTORS]) | sweep)
-                    if n_after > table[cell, _NOMEGA]:
-                        g_nomega += ln_count[n_after] - table[cell, _LN_NOMEGA]
-                if want_sigma and table[cell, _N_NEXT] > 1.5:  # a first observation: â = 0, no gain
-                    sx = table[cell, _SUM_U] + unit[r, 0]
-                    sy = table[cell, _SUM_U + 1] + unit[r, 1]
-                    sz = table[cell, _SUM_U + 2] + unit[r, 2]
-                    s_after = 1.0 - math.sqrt(sx * sx + sy * sy + sz * sz) / table[cell, _N_NEXT]
-                    s_after = min(max(s_after, 0.0), 1.0)
-                    if s_after > table[cell, _SIGMA]:
-                        g_sigma += math.log(max(s_after, floor)) - table[cell, _LN_SIGMA]
+        for q in range(n):
+            r = rays[q]
+            i, j = ci + dx[r], cj + dy[r]
+            cell = (i * ny + j) * nz + k[r]
+            if want_nobs:
+                g_nobs += table[cell, _NOBS_GAIN]
+            if want_rmin:
+                b = table[cell, _RMIN]
+                if range_m[r] < b:
+                    g_rmin += b - range_m[r]
+            if want_nomega:
+                sweep = _sweep(robot_azimuth[i, j], azimuth[r], robot_on_axis[i, j], n_sectors)
+                n_after = _popcount64(np.int64(table[cell, _SECTORS]) | sweep)
+                if n_after > table[cell, _NOMEGA]:
+                    g_nomega += ln_count[n_after] - table[cell, _LN_NOMEGA]
+            if want_sigma:
+                g_sigma += _sigma_gain(table, cell, unit, r, floor, first_sigma)
         sums[c, 0], sums[c, 1], sums[c, 2], sums[c, 3] = g_nobs, g_rmin, g_nomega, g_sigma
-        n_visible[c] = count
+        n_visible[c] = n
     return sums, n_visible
+
+
+@njit(cache=True, inline="always")
+def _sigma_gain(table, cell, unit, r, floor, first_sigma):
+    """σ_θ's gain of one more observation of ``cell`` along sight line ``r``."""
+    if table[cell, _N_NEXT] < 1.5:  # a first observation: â = first_sigma (0, authors 0.5)
+        return math.log(first_sigma / floor) if first_sigma > floor else 0.0
+    sx = table[cell, _SUM_U] + unit[r, 0]
+    sy = table[cell, _SUM_U + 1] + unit[r, 1]
+    sz = table[cell, _SUM_U + 2] + unit[r, 2]
+    s_after = 1.0 - math.sqrt(sx * sx + sy * sy + sz * sz) / table[cell, _N_NEXT]
+    s_after = min(max(s_after, 0.0), 1.0)
+    if s_after > table[cell, _SIGMA]:
+        return math.log(max(s_after, floor)) - table[cell, _LN_SIGMA]
+    return 0.0

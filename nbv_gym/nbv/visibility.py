@@ -1,10 +1,23 @@
-"""Sight lines from a candidate's sensor to the cells of G in range, and which ones are occluded.
+"""Which cells of G a scan from a candidate is predicted to observe: the four visibility models.
 
-A cell C of G is *visible* from a candidate T iff its centre's range from T's sensor is in
-``[min_range_m, sensor_range_m)`` and the segment from the sensor to C's centre passes through the
-interior of no occluding cell other than C itself and the sensor's own cell (SPEC §4: unknown space
-does not occlude; an occupied cell is visible — it is the surface we want to see — but hides what is
-behind it). A segment that only touches a cell's edge or corner does not pass through it.
+A sight line runs from a candidate T's sensor to the centre of a cell C of G. It is *clear* iff it
+passes through the interior of no occluding cell other than C itself and the sensor's own cell
+(SPEC §4: unknown space does not occlude; an occupied cell is seen — it is the surface we want to
+see — but hides what is behind it). A segment that only touches a cell's edge or corner does not
+pass through it. The models (:data:`VISIBILITY_MODELS`, SPEC §4) credit:
+
+- ``authors`` (their code): every cell of the cube of ± sensor range around T (clipped to G) with a
+  clear sight line, the sensor at the centre height of T's cell in G's lowest layer, no field of
+  view, no range limit inside the cube;
+- ``sphere``: every cell whose centre's range from a sensor at the lidar's height is in
+  ``[min_range_m, sensor_range_m)`` with a clear sight line;
+- ``fov``: as ``sphere``, restricted to sight lines whose elevation lies in the lidar's vertical
+  field of view;
+- ``physical``: what the statistics update (SPEC §3) would really touch: a clear sight line inside
+  the field of view and the range window that *ends on a surface the map already knows* (an
+  occluding cell) credits that cell and every cell it crosses whose own range is in the window. A
+  line ending in free or unknown space credits nothing: the lidar's ray would either return from
+  the ground (below 0.2 m, ignored by the statistics) or from nowhere.
 
 Every candidate's sensor stands at the centre (x, y) of a G column at the same height, so the cells a
 sight line crosses depend only on the offset (dx, dy) of the target column and the target layer k:
@@ -18,7 +31,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -28,6 +41,50 @@ from nbv_gym.grid import GridSpec
 
 #: Crossings closer than this (in units of the segment's parameter t ∈ [0, 1]) are simultaneous.
 _TIE = 1e-12
+
+#: The visibility models of gain prediction (module docstring), in the kernel's numbering.
+VISIBILITY_MODELS: tuple[str, ...] = ("authors", "sphere", "fov", "physical")
+_PHYSICAL = 3
+
+
+@dataclass(frozen=True)
+class SightModel:
+    """The geometry of one visibility model: which sight lines a candidate has.
+
+    Attributes:
+        model: one of :data:`VISIBILITY_MODELS`.
+        sensor_height_m: the sensor's height (map frame), metres (``authors``: G's lowest cell
+            centre, set by :meth:`for_grid`).
+        min_range_m, max_range_m: the range window ``[min, max)`` of a sight line, metres
+            (``authors``: the cube's half-width is ``max_range_m`` and only the sensor's own
+            cell is left out).
+        elevation_min_rad, elevation_max_rad: the field of view (``fov`` and ``physical``);
+            a sight line aims at its target iff its elevation lies in ``[min, max]``.
+    """
+
+    model: str = "physical"
+    sensor_height_m: float = 0.42
+    min_range_m: float = math.sqrt(3.0)
+    max_range_m: float = 20.0
+    elevation_min_rad: float = -0.26
+    elevation_max_rad: float = 0.26
+
+    def __post_init__(self) -> None:
+        if self.model not in VISIBILITY_MODELS:
+            raise NbvGymError(
+                f"visibility: expected one of {', '.join(VISIBILITY_MODELS)}, got {self.model!r}"
+            )
+
+    def for_grid(self, grid: GridSpec) -> SightModel:
+        """This model on ``grid``: the ``authors`` sensor stands at G's lowest cell centre."""
+        if self.model != "authors":
+            return self
+        return replace(self, sensor_height_m=float(grid.origin[2] + 0.5 * grid.res))
+
+    @property
+    def code(self) -> int:
+        """The model's index in :data:`VISIBILITY_MODELS` (what the kernels read)."""
+        return VISIBILITY_MODELS.index(self.model)
 
 
 @dataclass(frozen=True)
@@ -44,6 +101,10 @@ class SightLines:
         range_m: (n,) float64 distance sensor – target centre, metres.
         unit: (n, 3) float64 unit vector target centre → sensor, ``(T − C) / |T − C|``.
         azimuth: (n,) float64 ``atan2(T_y − C_y, T_x − C_x)`` in [0, 2π).
+        aimed: (n,) bool the sight lines the lidar aims along (inside the model's field of view);
+            the others are kept as cells a physical ray may cross.
+        through_start, through_rays: CSR lists, per sight line, of the sight lines of the cells it
+            crosses that lie in the range window (a physical ray credits them too).
         dx_start: (2 · reach + 2,) int64 first ray of each dx.
         crossing_start: (n_offsets + 1,) int64 CSR row starts over the relative cells
             ``((cdx + reach) · (2 · reach + 1) + cdy + reach) · nz + ck``.
@@ -59,6 +120,9 @@ class SightLines:
     range_m: np.ndarray
     unit: np.ndarray
     azimuth: np.ndarray
+    aimed: np.ndarray
+    through_start: np.ndarray
+    through_rays: np.ndarray
     dx_start: np.ndarray
     crossing_start: np.ndarray
     crossing_rays: np.ndarray
@@ -69,30 +133,33 @@ class SightLines:
         return len(self.dx)
 
 
-def sight_lines(
-    grid: GridSpec, sensor_height_m: float, min_range_m: float, max_range_m: float
-) -> SightLines:
-    """The sight lines of a sensor at ``sensor_height_m`` (metres, map frame) above a column centre
-    of ``grid`` to every cell whose centre's range is in ``[min_range_m, max_range_m)``. Cached per
-    geometry."""
+def sight_lines(grid: GridSpec, model: SightModel) -> SightLines:
+    """The sight lines of ``model`` (see :class:`SightModel`) from a sensor above a column centre
+    of ``grid``. Cached per geometry."""
+    model = model.for_grid(grid)
     return _sight_lines(
-        float(grid.res), float(grid.origin[2]), int(grid.shape[2]),
-        float(sensor_height_m), float(min_range_m), float(max_range_m),
+        float(grid.res), float(grid.origin[2]), int(grid.shape[2]), model.model == "authors",
+        float(model.sensor_height_m), float(model.min_range_m), float(model.max_range_m),
+        *((model.elevation_min_rad, model.elevation_max_rad) if model.code >= 2 else (-9.0, 9.0)),
     )  # fmt: skip
 
 
 @functools.lru_cache(maxsize=8)
 def _sight_lines(
-    res: float, z0: float, nz: int, sensor_height_m: float, min_range_m: float, max_range_m: float
-) -> SightLines:
-    reach = max(int(math.ceil(max_range_m / res)), 0)
+    res: float, z0: float, nz: int, cube: bool, sensor_height_m: float, min_range_m: float,
+    max_range_m: float, elevation_min: float, elevation_max: float,
+) -> SightLines:  # fmt: skip
+    reach = max(int(math.floor(max_range_m / res + 1e-9) if cube else math.ceil(max_range_m / res)), 0)
     zs = (sensor_height_m - z0) / res
     dx, dy, k = (a.ravel() for a in np.meshgrid(
         np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), np.arange(nz), indexing="ij"
     ))  # fmt: skip
     to_sensor = np.column_stack([-dx, -dy, zs - (k + 0.5)]).astype(np.float64) * res
     range_m = np.linalg.norm(to_sensor, axis=1)
-    keep = (range_m >= min_range_m) & (range_m < max_range_m)
+    if cube:
+        keep = range_m > 1e-9
+    else:
+        keep = (range_m >= min_range_m) & (range_m < max_range_m)
     dx, dy, k, range_m, to_sensor = dx[keep], dy[keep], k[keep], range_m[keep], to_sensor[keep]
     if len(dx) == 0:
         raise NbvGymError(
@@ -102,16 +169,34 @@ def _sight_lines(
     unit = to_sensor / range_m[:, None]
     azimuth = np.mod(np.arctan2(to_sensor[:, 1], to_sensor[:, 0]), 2.0 * np.pi)
     azimuth[azimuth >= 2.0 * np.pi] = 0.0
+    elevation = np.arcsin(np.clip(-unit[:, 2], -1.0, 1.0))  # of the line sensor → target
+    aimed = (elevation >= elevation_min - 1e-12) & (elevation <= elevation_max + 1e-12)
     width = 2 * reach + 1
     offsets, rays = _all_crossings(dx, dy, k, zs, nz, reach)
     order = np.argsort(offsets, kind="stable")
     counts = np.bincount(offsets, minlength=width * width * nz)
     crossing_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     dx_start = np.searchsorted(dx, np.arange(-reach, reach + 2)).astype(np.int64)
+    through_start, through_rays = _through_lists(offsets, rays, dx, dy, k, reach, nz)
     return SightLines(
         reach, nz, dx.astype(np.int64), dy.astype(np.int64), k.astype(np.int64), range_m, unit,
-        azimuth, dx_start, crossing_start, rays[order].astype(np.int64),
+        azimuth, aimed, through_start, through_rays, dx_start, crossing_start,
+        rays[order].astype(np.int64),
     )  # fmt: skip
+
+
+def _through_lists(offsets, rays, dx, dy, k, reach, nz) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (start (n + 1,), rays) of the in-window sight lines of the cells each sight line
+    crosses: a crossed relative cell is looked up among the sight lines' targets."""
+    width = 2 * reach + 1
+    ray_of = np.full(width * width * nz, -1, np.int64)
+    ray_of[((dx + reach) * width + dy + reach) * nz + k] = np.arange(len(dx))
+    crossed = ray_of[offsets]
+    keep = crossed >= 0
+    owner, crossed = rays[keep], crossed[keep]
+    order = np.argsort(owner, kind="stable")
+    counts = np.bincount(owner, minlength=len(dx))
+    return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64), crossed[order]
 
 
 def crossed_cells(dx: int, dy: int, k: int, zs: float) -> np.ndarray:
@@ -199,34 +284,66 @@ def mark_occluded(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, s
 
 
 @njit(cache=True)
-def _visible_mask(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, dx, dy, k, out):
-    """Set ``out[cell] = True`` for each in-grid target of an unoccluded sight line of the
-    candidate column ``(ci, cj)`` (the same rule as the gains kernel)."""
-    stamps = np.full(len(dx), -1, np.int64)
-    mark_occluded(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, stamps, 0)
-    nx, ny = out.shape[0], out.shape[1]
-    for r in range(len(dx)):
-        i, j = ci + dx[r], cj + dy[r]
-        if 0 <= i < nx and 0 <= j < ny and stamps[r] != 0:
-            out[i, j, k[r]] = True
+def credited_rays(ci, cj, physical, occluders, occluding, reach, nz, crossing_start,
+                  crossing_rays, dx_start, dx, dy, k, aimed, through_start, through_rays, nx, ny,
+                  stamps, visits, stamp, out):  # fmt: skip
+    """Write to ``out`` the sight lines (one per cell, its first) of the cells the candidate
+    column ``(ci, cj)`` is credited with (module docstring); return how many.
+
+    ``occluding`` (nx · ny · nz,) bool flat; ``stamps`` (n_rays,) and ``visits``
+    (nx · ny · nz,) int64 scratch arrays holding no ``stamp`` yet (a new stamp per candidate).
+    """
+    mark_occluded(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, stamps, stamp)
+    n = 0
+    for a in range(max(-reach, -ci), min(reach, nx - 1 - ci) + 1):
+        i = ci + a
+        for r in range(dx_start[a + reach], dx_start[a + reach + 1]):
+            j = cj + dy[r]
+            if j < 0 or j >= ny or stamps[r] == stamp or not aimed[r]:
+                continue
+            cell = (i * ny + j) * nz + k[r]
+            if not physical:
+                visits[cell] = stamp
+                out[n] = r
+                n += 1
+                continue
+            if not occluding[cell]:
+                continue  # the ray returns from the ground or from nowhere: nothing is updated
+            if visits[cell] != stamp:
+                visits[cell] = stamp
+                out[n] = r
+                n += 1
+            for p in range(through_start[r], through_start[r + 1]):
+                q = through_rays[p]
+                qi, qj = ci + dx[q], cj + dy[q]
+                if 0 <= qi < nx and 0 <= qj < ny:
+                    crossed = (qi * ny + qj) * nz + k[q]
+                    if visits[crossed] != stamp:
+                        visits[crossed] = stamp
+                        out[n] = q
+                        n += 1
+    return n
 
 
-def visible_cells(
-    occluding: np.ndarray,
-    column: tuple[int, int],
-    grid: GridSpec,
-    sensor_height_m: float,
-    min_range_m: float,
-    max_range_m: float,
+def credited_cells(
+    occluding: np.ndarray, column: tuple[int, int], grid: GridSpec, model: SightModel
 ) -> np.ndarray:
-    """(nx, ny, nz) bool: the cells of ``grid`` visible from a sensor at ``sensor_height_m`` above
-    the centre of column ``(i, j)``, given the (nx, ny, nz) bool ``occluding`` cells."""
-    lines = sight_lines(grid, sensor_height_m, min_range_m, max_range_m)
-    out = np.zeros(grid.shape, bool)
-    _visible_mask(
-        int(column[0]), int(column[1]), occluder_cells(occluding), lines.reach, lines.nz,
-        lines.crossing_start, lines.crossing_rays, lines.dx, lines.dy, lines.k, out,
+    """(nx, ny, nz) bool: the cells of ``grid`` a candidate at column ``(i, j)`` is credited
+    with under ``model``, given the (nx, ny, nz) bool ``occluding`` cells."""
+    lines = sight_lines(grid, model)
+    occluding = np.asarray(occluding, bool)
+    nx, ny, nz = grid.shape
+    rays = np.empty(lines.n_rays, np.int64)
+    n = credited_rays(
+        int(column[0]), int(column[1]), model.code == _PHYSICAL, occluder_cells(occluding),
+        occluding.ravel(), lines.reach, nz, lines.crossing_start, lines.crossing_rays,
+        lines.dx_start, lines.dx, lines.dy, lines.k, lines.aimed, lines.through_start,
+        lines.through_rays, nx, ny, np.full(lines.n_rays, -1, np.int64),
+        np.full(nx * ny * nz, -1, np.int64), 0, rays,
     )  # fmt: skip
+    out = np.zeros(grid.shape, bool)
+    rays = rays[:n]
+    out[column[0] + lines.dx[rays], column[1] + lines.dy[rays], lines.k[rays]] = True
     return out
 
 

@@ -12,11 +12,11 @@ from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.statistics import ViewpointStatistics
 from nbv_gym.nbv import GAIN_LAYERS, NbvConfig, candidate_mask, predict_gains, swept_sectors
 from nbv_gym.nbv.gains import goal_centres_xy, predict_gains_arrays
-from nbv_gym.nbv.visibility import visible_cells
+from nbv_gym.nbv.visibility import SightModel, credited_cells
 
 # A row of cells, one layer, the sensor at the layer's mid-height: the sensor of the candidate at
 # column i sees the other cells of the row at ranges |i' − i| metres.
-CONFIG = NbvConfig(min_range_m=0.5, sensor_range_m=10.0, sensor_height_m=0.5)
+CONFIG = NbvConfig(min_range_m=0.5, sensor_range_m=10.0, sensor_height_m=0.5, visibility="sphere")
 LN_1000 = math.log(1000.0)
 
 
@@ -214,10 +214,10 @@ def test_gains_from_real_statistics_count_the_visible_cells():
     occluding = rng.random(grid.shape) < 0.1
     candidates = np.zeros(64, bool)
     candidates[[9, 27, 50]] = True
-    config = NbvConfig(sensor_range_m=6.0)
+    config = NbvConfig(sensor_range_m=6.0, visibility="sphere")
     layers = predict_gains(stats, occluding, np.zeros(2), candidates, config)
     for goal in (9, 27, 50):
-        visible = visible_cells(occluding, divmod(goal, 8), grid, 0.42, math.sqrt(3), 6.0)
+        visible = credited_cells(occluding, divmod(goal, 8), grid, SightModel("sphere", 0.42, math.sqrt(3), 6.0))
         assert layers["gain_nobs"].ravel()[goal] == pytest.approx(visible.sum() * LN_1000, rel=1e-6)
 
 

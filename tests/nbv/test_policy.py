@@ -51,7 +51,7 @@ class Corridor:
     def observation(self, cost=(0.0, 0.0)):
         candidates = np.zeros(9, bool)
         candidates[[1, 7]] = True
-        config = NbvConfig(min_range_m=0.5, sensor_range_m=10.0, sensor_height_m=0.5)
+        config = NbvConfig(min_range_m=0.5, sensor_range_m=10.0, sensor_height_m=0.5, visibility="sphere")
         layers = predict_gains_arrays(
             self.grid, self.n_obs, self.r_min, self.sectors, self.sum_u, self.occluding,
             np.array([4.5, 3.5]), candidates, config,

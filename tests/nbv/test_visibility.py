@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nbv_gym.grid import GridSpec
-from nbv_gym.nbv.visibility import crossed_cells, sight_lines, visible_cells
+from nbv_gym.nbv.visibility import SightModel, credited_cells, crossed_cells, sight_lines
 
 # A one-layer grid with the sensor at the layer's mid-height: every sight line is horizontal, so
 # the cases below are drawn on squared paper.
@@ -19,7 +19,7 @@ def flat_visible(occluders, column=(3, 3), min_range=0.5, max_range=10.0):
     occluding = np.zeros(FLAT.shape, bool)
     for cell in occluders:
         occluding[cell] = True
-    return visible_cells(occluding, column, FLAT, 0.5, min_range, max_range)
+    return credited_cells(occluding, column, FLAT, SightModel("sphere", 0.5, min_range, max_range))
 
 
 @pytest.mark.parametrize(
@@ -112,7 +112,7 @@ def test_visibility_equals_an_exact_brute_force(seed):
     rng = np.random.default_rng(seed)
     occluding = rng.random(grid.shape) < 0.08
     column = (int(rng.integers(9)), int(rng.integers(8)))
-    got = visible_cells(occluding, column, grid, 0.42, np.sqrt(3), 7.0)
+    got = credited_cells(occluding, column, grid, SightModel("sphere", 0.42, np.sqrt(3), 7.0))
     want = brute_force_visible(grid, occluding, column, 0.42, np.sqrt(3), 7.0)
     assert np.array_equal(got, want)
     assert 0 < got.sum() < want.size  # the case is not trivial
@@ -120,7 +120,7 @@ def test_visibility_equals_an_exact_brute_force(seed):
 
 def test_sight_lines_are_sorted_by_dx_and_in_range():
     grid = GridSpec((-30.0, -30.0, 0.2), 1.0, (60, 60, 6))
-    lines = sight_lines(grid, 0.42, np.sqrt(3), 20.0)
+    lines = sight_lines(grid, SightModel("sphere", 0.42, np.sqrt(3), 20.0))
     assert np.all(np.diff(lines.dx) >= 0)
     assert lines.range_m.min() >= np.sqrt(3) and lines.range_m.max() < 20.0
     for dx in (-20, 0, 7):

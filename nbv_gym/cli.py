@@ -225,6 +225,15 @@ def _register_train() -> None:
 _register_train()
 
 
+def _register_study() -> None:
+    from nbv_gym.studies.command import study_app
+
+    app.add_typer(study_app, name="study")
+
+
+_register_study()
+
+
 def main() -> None:
     """Entry point of the ``nbv-gym`` console script."""
     app()

@@ -4,7 +4,8 @@ Keys: ``q_update_ms`` (incremental Q after one lidar scan's touched cuboids on `
 given their probabilities), ``q_map_read_ms`` (reading those probabilities from the map),
 ``wd_cuboid_ms`` (our batched WD_occ, per cuboid), ``pot_wd_cuboid_ms`` (POT's dense
 ``ot.sinkhorn2`` on the same cuboids), ``empir3d_s`` (the four Empir3D scores) and ``chamfer_s``
-(a plain cKDTree Chamfer distance) on the same two clouds of 10⁶ points.
+(a plain cKDTree Chamfer distance) on the same two clouds of 10⁶ points (the paper claims Empir3D
+is at least twice as fast as Chamfer: ``empir3d_s ≤ 0.5 chamfer_s``).
 """
 
 from __future__ import annotations
@@ -129,12 +130,13 @@ def surface_points(world, count: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def plain_chamfer(a: np.ndarray, b: np.ndarray, workers: int = -1) -> float:
-    """Eq. (1) of ``004_…`` the usual way: two default cKDTrees, two nearest-neighbour queries."""
+    """The Chamfer distance of :mod:`nbv_gym.metrics.empir3d` (the symmetric mean of eq. (1) of
+    ``004_…``) the usual way: two default cKDTrees, two nearest-neighbour queries."""
     from scipy.spatial import cKDTree
 
-    return float(
-        cKDTree(b).query(a, workers=workers)[0].sum()
-        + cKDTree(a).query(b, workers=workers)[0].sum()
+    return 0.5 * float(
+        cKDTree(b).query(a, workers=workers)[0].mean()
+        + cKDTree(a).query(b, workers=workers)[0].mean()
     )
 
 

@@ -43,8 +43,78 @@ def test_chamfer_and_hausdorff_match_brute_force():
     a, b = rng.random((300, 3)), rng.random((200, 3)) + 0.1
     d = cdist(a, b)
     chamfer, hausdorff = chamfer_hausdorff(a, b)
-    assert chamfer == pytest.approx(d.min(axis=1).sum() + d.min(axis=0).sum())
+    assert chamfer == pytest.approx((d.min(axis=1).mean() + d.min(axis=0).mean()) / 2)
     assert hausdorff == pytest.approx(max(d.min(axis=1).max(), d.min(axis=0).max()))
+
+
+def test_chamfer_of_a_shifted_copy_is_the_shift():
+    a = _plane()
+    chamfer, hausdorff = chamfer_hausdorff(a, a + [0.0, 0.0, 0.004])
+    assert chamfer == pytest.approx(0.004) and hausdorff == pytest.approx(0.004)
+
+
+def _voxel_layer(origin, corners=False):
+    """A 10 × 10 layer of 0.1 m voxel centres (or low corners) above ``origin``, and a candidate:
+    its first five rows plus five points one voxel higher (hand-computed scores below)."""
+    offset = 0.0 if corners else 0.05
+    i, j = np.meshgrid(np.arange(10), np.arange(10), indexing="ij")
+    cells = np.stack([i.ravel(), j.ravel(), np.zeros(100, int)], 1)
+    raised = np.stack([np.full(5, 5), np.arange(5), np.ones(5, int)], 1)
+    cand = np.concatenate([cells[cells[:, 0] < 5], raised])
+    to_m = lambda c: np.asarray(origin) + 0.1 * c + offset  # noqa: E731
+    return to_m(cells), to_m(cand)
+
+
+#: Q_c = 50 shared cells / 100; Q_t = 50 / 55; q_a: the 5 raised points are exactly ε from the
+#: reference (s = ε each) → 1 − 5 ε / (55 ε); q_r: both clouds have nearest neighbours at 0.1 m.
+LAYER_SCORES = (1.0, 1 - 5 / 55, 0.5, 50 / 55)
+
+
+@pytest.mark.parametrize("corners", [False, True], ids=["voxel-centres", "voxel-corners"])
+@pytest.mark.parametrize("origin", [(0.0, 0.0, 0.0), (-30.0, -30.0, 1.0)], ids=["at-0", "far"])
+def test_structured_clouds_are_stable_under_tiny_shifts_and_float32(origin, corners):
+    a, b = _voxel_layer(origin, corners)
+    config = Empir3DConfig(0.1, 1.0)
+    variants = {
+        "float64": (a, b),
+        "float32 candidate": (a, b.astype(np.float32)),
+        "float32 both": (a.astype(np.float32), b.astype(np.float32)),
+        "+1e-9": (a + 1e-9, b + 1e-9),
+        "-1e-9": (a - 1e-9, b - 1e-9),
+        "candidate -7.6e-7": (a, b - 7.6e-7),
+        "reference +2e-6": (a + 2e-6, b),
+    }
+    for name, (ref, cand) in variants.items():
+        result = empir3d(ref, cand, config)
+        scores = (result.q_r, result.q_a, result.q_c, result.q_t)
+        assert scores == pytest.approx(LAYER_SCORES, abs=1e-9), name
+
+
+def test_cells_are_anchored_at_the_frame_origin_not_at_the_smallest_point():
+    a, b = _voxel_layer((0.0, 0.0, 0.0))
+    lone = np.array([[-0.049, 0.05, 0.05]])  # in cell (-1, 0, 0) whatever the other points
+    result = empir3d(np.concatenate([a, lone]), b, Empir3DConfig(0.1, 1.0))
+    assert result.q_c == pytest.approx(50 / 101)
+    assert result.regions.index.min(axis=0).tolist() == [-1, 0, 0]
+    assert result.regions.low_m.min(axis=0).tolist() == [-1.0, 0.0, 0.0]
+
+
+def test_region_scores_match_a_brute_force_search():
+    rng = np.random.default_rng(3)
+    a = rng.random((400, 3)) * [2.0, 2.0, 0.5]
+    b = np.concatenate([a[:250] + rng.normal(0, 0.03, (250, 3)), rng.random((60, 3))])
+    result = empir3d(a, b, Empir3DConfig(0.1, 1.0))
+    region_a, region_b = np.floor(a / 1.0), np.floor(b / 1.0)
+    for r, index in enumerate(result.regions.index):
+        ra, rb = a[(region_a == index).all(1)], b[(region_b == index).all(1)]
+        if len(ra) < 2 or len(rb) < 2:
+            assert np.isnan(result.regions.q_r[r]) and np.isnan(result.regions.q_a[r])
+            continue
+        spacing = [np.sort(cdist(c, c), axis=1)[:, 1].mean() for c in (ra, rb)]
+        s = cdist(rb, ra).min(axis=1)
+        q_a = 1 - s[s <= 0.1].sum() / (0.1 * len(rb))
+        assert result.regions.q_r[r] == pytest.approx(min(spacing[0] / spacing[1], 1), rel=1e-3)
+        assert result.regions.q_a[r] == pytest.approx(q_a, abs=1e-3)
 
 
 def test_per_region_results_are_available():
@@ -95,3 +165,11 @@ def _scene(count, rng):
     by = np.choose(side, [np.ones(count), u, -np.ones(count), u])
     box = np.stack([c[:, 0] + bx, c[:, 1] + by, 2 * h], 1)
     return np.where(kind[:, None] == 0, cylinder, box)
+
+
+def test_bench_chamfer_is_the_same_definition():
+    from nbv_gym.metrics.bench import plain_chamfer
+
+    rng = np.random.default_rng(1)
+    a, b = rng.random((200, 3)), rng.random((150, 3))
+    assert plain_chamfer(a, b) == pytest.approx(chamfer_hausdorff(a, b)[0])

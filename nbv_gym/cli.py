@@ -113,7 +113,13 @@ def worlds_preview(
 @app.command()
 def run(
     world: Annotated[str, typer.Option(help="World name or spec file.")] = "pp1-trees",
-    policy: Annotated[str, typer.Option(help="Policy name or module:Class.")] = "closest-frontier",
+    policy: Annotated[
+        str,
+        typer.Option(
+            help="Policy name, module:Class or sb3:MODEL.zip. The last two run code from their "
+            "files (a model zip is a pickle): use only ones you trust."
+        ),
+    ] = "closest-frontier",
     noise: Annotated[int, typer.Option(help="Localisation-noise level 0, 1 or 2.")] = 1,
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
     max_steps: Annotated[int, typer.Option(help="Truncate after this many steps.")] = 100,

@@ -69,23 +69,16 @@ def check_model_file(path: Path) -> None:
 
 
 def load_model(path: Path, device: str = "cpu"):
-    """The SB3 model saved at ``path``, whichever supported algorithm saved it."""
-    from nbv_gym.rl.train import ALGORITHM_CLASSES, algorithm_class
+    """The SB3 model saved at ``path``, loaded once its data JSON declares a supported algorithm
+    and Explore-v0's spaces (:func:`~nbv_gym.rl.modelfile.describe_model`). Loading unpickles
+    the file: a model is code, load only models you trust."""
+    from nbv_gym.rl.modelfile import describe_model
+    from nbv_gym.rl.train import algorithm_class
 
     check_model_file(path)
-    from stable_baselines3.common.save_util import load_from_zip_file
-
-    data, _, _ = load_from_zip_file(path, device=device, load_data=True)
-    policy_class = getattr(data.get("policy_class"), "__name__", "")
-    name = "MaskablePPO" if "Maskable" in policy_class else _unmasked_algorithm(data)
-    if name not in ALGORITHM_CLASSES:
-        raise PolicyError(f"{str(path)!r}: cannot tell which algorithm saved this model.")
-    return algorithm_class(name).load(path, device=device)
-
-
-def _unmasked_algorithm(data: dict[str, Any]) -> str:
-    """PPO saves ``n_epochs``/``clip_range``; A2C does not."""
-    return "PPO" if "n_epochs" in data else "A2C"
+    description = describe_model(path)
+    check_spaces(description, path)
+    return algorithm_class(description.algorithm).load(path, device=device)
 
 
 def check_spaces(model, path: Path) -> tuple[str, ...]:

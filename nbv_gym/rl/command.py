@@ -34,7 +34,8 @@ def train(
 
     The run folder holds config.toml, system_info.txt, logs/run-<k>/ (progress.csv and
     TensorBoard events), checkpoints/, best_model.zip (best evaluation) and final_model.zip.
-    A model runs as a policy named sb3:PATH in nbv-gym run and in sweep configs.
+    A model runs as a policy named sb3:PATH in nbv-gym run and in sweep configs. A model zip
+    is code (SB3 unpickles it): load only models you trust.
 
     Examples:
 

@@ -42,7 +42,8 @@ def sweep(
     At the end OUT/runs.csv (one row per run), OUT/steps.csv (one row per step) and
     OUT/cuboids.parquet (per-cuboid statistics and quality) are rebuilt, and the report is
     written to OUT/report/report.md. Policies given as module:Class are imported from the
-    config file's folder or the current folder.
+    config file's folder or the current folder: a config naming module:Class or sb3:MODEL.zip
+    policies runs code from those files, so run only configs you trust.
 
     Examples:
 

@@ -60,31 +60,76 @@ def read_points(path: str | Path) -> FloatArray:
     return _checked(path, points)
 
 
-def write_points(path: str | Path, points: FloatArray) -> Path:
-    """Write (n, 3) points to ``path``: binary PLY, binary PCD, NPY or XYZ text by suffix."""
+def write_points(
+    path: str | Path,
+    points: FloatArray,
+    scalars: dict[str, FloatArray] | None = None,
+    single: bool = False,
+) -> Path:
+    """Write (n, 3) points to ``path``: binary PLY, binary PCD, NPY or XYZ text by suffix.
+
+    ``scalars``: per-point (n,) values written beside the coordinates (a PLY vertex property or
+    a PCD field of that name — CloudCompare shows them as scalar fields; extra columns in NPY and
+    text files). ``single``: coordinates and scalars as float32 (what PCL's ``PointXYZ`` and most
+    viewers expect; exact to 4e-6 m below 64 m) instead of float64.
+    """
     path = Path(path)
-    points = np.ascontiguousarray(points, dtype=np.float64)
+    points = np.asarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise PointCloudError(path, f"points must be (n, 3), got {points.shape}")
+    columns = {"x": points[:, 0], "y": points[:, 1], "z": points[:, 2], **(scalars or {})}
+    for name, values in columns.items():
+        if np.shape(values) != (len(points),) or not name.isidentifier():
+            raise PointCloudError(path, f"scalar {name!r} must be ({len(points)},) values")
+    table = _table(columns, "<f4" if single else "<f8")
     suffix = path.suffix.lower()
     if suffix == ".ply":
-        header = f"ply\nformat binary_little_endian 1.0\nelement vertex {len(points)}\n"
-        header += "property double x\nproperty double y\nproperty double z\nend_header\n"
-        path.write_bytes(header.encode() + points.astype("<f8").tobytes())
+        path.write_bytes(_ply_header_text(table).encode() + table.tobytes())
     elif suffix == ".pcd":
-        header = (f"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 8 8 8\nTYPE F F F\nCOUNT 1 1 1\n"
-                  f"WIDTH {len(points)}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(points)}\n"
-                  "DATA binary\n")  # fmt: skip
-        path.write_bytes(header.encode() + points.astype("<f8").tobytes())
+        path.write_bytes(_pcd_header_text(table).encode() + table.tobytes())
     elif suffix == ".npy":
-        np.save(path, points)
+        np.save(path, _columns(table))
     elif suffix in SUFFIXES:
-        np.savetxt(path, points, fmt="%.9g")
+        np.savetxt(path, _columns(table), fmt="%.9g", header=" ".join(columns))
     else:
         raise PointCloudError(
             path, f"unknown point-cloud format {suffix!r}; use one of {', '.join(SUFFIXES)}"
         )
     return path
+
+
+def _table(columns: dict[str, FloatArray], dtype: str) -> np.ndarray:
+    """(n,) structured array of the named columns, all of ``dtype``."""
+    n = len(columns["x"])
+    table = np.empty(n, dtype=[(name, dtype) for name in columns])
+    for name, values in columns.items():
+        table[name] = values
+    return table
+
+
+def _columns(table: np.ndarray) -> FloatArray:
+    """(n, k) plain array of a structured table's columns."""
+    return np.stack([table[name] for name in table.dtype.names], axis=1)
+
+
+def _ply_header_text(table: np.ndarray) -> str:
+    kind = "float" if table.dtype[0].itemsize == 4 else "double"
+    properties = "".join(f"property {kind} {name}\n" for name in table.dtype.names)
+    return (
+        f"ply\nformat binary_little_endian 1.0\ncomment written by nbv-gym\n"
+        f"element vertex {len(table)}\n{properties}end_header\n"
+    )
+
+
+def _pcd_header_text(table: np.ndarray) -> str:
+    names, k = table.dtype.names, len(table.dtype.names)
+    size = table.dtype[0].itemsize
+    return (
+        f"# .PCD v0.7 - written by nbv-gym\nVERSION 0.7\nFIELDS {' '.join(names)}\n"
+        f"SIZE {' '.join([str(size)] * k)}\nTYPE {' '.join(['F'] * k)}\n"
+        f"COUNT {' '.join(['1'] * k)}\nWIDTH {len(table)}\nHEIGHT 1\n"
+        f"VIEWPOINT 0 0 0 1 0 0 0\nPOINTS {len(table)}\nDATA binary\n"
+    )
 
 
 def _checked(path: Path, points: FloatArray) -> FloatArray:

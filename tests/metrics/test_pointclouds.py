@@ -66,3 +66,60 @@ def test_bad_inputs_raise_clear_errors(tmp_path):
     (tmp_path / "bad.xyz").write_text("1 2 3\n4 five 6\n")
     with pytest.raises(PointCloudError, match="bad.xyz: line 2"):
         read_points(tmp_path / "bad.xyz")
+
+
+@pytest.mark.parametrize("text", [False, True], ids=["binary", "ascii"])
+def test_reads_ply_written_by_plyfile_with_faces_and_extra_properties(tmp_path, text):
+    plyfile = pytest.importorskip("plyfile")
+    vertex = np.array(
+        [(*p, i) for i, p in enumerate(POINTS)],
+        dtype=[("x", "f8"), ("y", "f8"), ("z", "f8"), ("intensity", "u1")],
+    )
+    face = np.array([([0, 1, 2],)], dtype=[("vertex_indices", "i4", (3,))])
+    elements = [plyfile.PlyElement.describe(vertex, "vertex"),
+                plyfile.PlyElement.describe(face, "face")]  # fmt: skip
+    path = tmp_path / "lib.ply"
+    plyfile.PlyData(elements, text=text).write(str(path))
+    np.testing.assert_allclose(read_points(path), POINTS, rtol=1e-12)
+
+
+def test_reads_ply_written_by_trimesh(tmp_path):
+    trimesh = pytest.importorskip("trimesh")
+    path = tmp_path / "trimesh.ply"
+    trimesh.PointCloud(POINTS).export(path)
+    np.testing.assert_allclose(read_points(path), POINTS, rtol=1e-6)
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "binary"])
+def test_reads_pcd_written_by_pypcd4(tmp_path, encoding):
+    pypcd4 = pytest.importorskip("pypcd4")
+    fields, types = ("x", "y", "z", "intensity"), (np.float32, np.float32, np.float32, np.uint16)
+    cloud = pypcd4.PointCloud.from_points(
+        [POINTS[:, 0], POINTS[:, 1], POINTS[:, 2], np.arange(3)], fields, types
+    )
+    path = tmp_path / "lib.pcd"
+    cloud.save(path, encoding=pypcd4.Encoding(encoding))
+    np.testing.assert_allclose(read_points(path), POINTS.astype(np.float32), rtol=1e-7)
+
+
+def test_compressed_pcd_from_pypcd4_is_refused_with_advice(tmp_path):
+    pypcd4 = pytest.importorskip("pypcd4")
+    path = tmp_path / "lib.pcd"
+    grid = np.zeros((1000, 3))  # compressible, else pypcd4 falls back to plain binary
+    pypcd4.PointCloud.from_xyz_points(grid).save(path, encoding=pypcd4.Encoding.BINARY_COMPRESSED)
+    assert b"DATA binary_compressed" in path.read_bytes()[:200]
+    with pytest.raises(PointCloudError, match="unsupported PCD DATA 'binary_compressed'"):
+        read_points(path)
+
+
+def test_scalars_and_single_precision_read_back_by_plyfile_and_pypcd4(tmp_path):
+    plyfile, pypcd4 = pytest.importorskip("plyfile"), pytest.importorskip("pypcd4")
+    weight = np.array([0.25, 0.5, 1.0])
+    ply = write_points(tmp_path / "s.ply", POINTS, {"weight": weight}, single=True)
+    vertex = plyfile.PlyData.read(str(ply))["vertex"]
+    assert vertex["x"].dtype == np.float32
+    np.testing.assert_allclose(vertex["weight"], weight)
+    pcd = write_points(tmp_path / "s.pcd", POINTS, {"weight": weight})
+    cloud = pypcd4.PointCloud.from_path(pcd)
+    np.testing.assert_allclose(cloud.numpy(("x", "y", "z", "weight")), np.c_[POINTS, weight])
+    np.testing.assert_allclose(read_points(pcd), POINTS)

@@ -1,5 +1,21 @@
 """Statistics of the report: Q-vs-discovered curves, their area, bootstrap intervals, paired
-comparisons of policies and the Table II share of significant indicator tests."""
+comparisons of policies and the Table II share of significant indicator tests.
+
+What the RL and robotics literature expects (Agarwal et al., *Deep RL at the edge of the
+statistical precipice*, NeurIPS 2021), computed with numpy/scipy (the rliable package breaks under
+pandas 3):
+
+- confidence intervals: ``scipy.stats.bootstrap`` with the bias-corrected and accelerated (BCa)
+  method, 95 %, 10 000 resamples, seeded from the report's generator;
+- the interquartile mean (IQM): the mean of the middle 50 % of the runs (``trim_mean(x, 0.25)``),
+  robust to outlier runs yet less noisy than the median;
+- the probability of improvement ``P(A > B)``: per task (world and noise level) the probability
+  that a run of A scores higher than a run of B, ties counting ½ (the Mann–Whitney U statistic
+  over ``n_A n_B``), averaged over the tasks;
+- multiple comparisons: the paired Wilcoxon p-values of all policy pairs of one table are one
+  family, adjusted with Holm's step-down method (controls the family-wise error rate at α
+  without Bonferroni's loss of power; no independence assumption).
+"""
 
 from __future__ import annotations
 
@@ -54,15 +70,83 @@ class Interval:
 def bootstrap_mean(
     values: FloatArray, rng: np.random.Generator, resamples: int = 10_000, level: float = 0.95
 ) -> Interval:
-    """The mean of (n,) ``values`` with a percentile-bootstrap confidence interval (NaN if n = 0)."""
+    """The mean of (n,) ``values`` with its BCa bootstrap confidence interval (NaN if n = 0)."""
+    return bootstrap_interval(values, np.mean, rng, resamples, level)
+
+
+def bootstrap_iqm(
+    values: FloatArray, rng: np.random.Generator, resamples: int = 10_000, level: float = 0.95
+) -> Interval:
+    """The interquartile mean of (n,) ``values`` with its BCa bootstrap confidence interval."""
+    return bootstrap_interval(values, iqm, rng, resamples, level)
+
+
+def iqm(values: FloatArray, axis: int = -1) -> FloatArray:
+    """Interquartile mean: the mean of the middle 50 % of ``values`` along ``axis``."""
+    from scipy.stats import trim_mean
+
+    return trim_mean(values, 0.25, axis=axis)
+
+
+def bootstrap_interval(
+    values: FloatArray, statistic, rng: np.random.Generator, resamples: int = 10_000,
+    level: float = 0.95,
+) -> Interval:  # fmt: skip
+    """``statistic`` (a vectorised ``f(x, axis)``) of the finite (n,) ``values`` with its BCa
+    bootstrap interval (``scipy.stats.bootstrap``). Undefined for n = 0 (NaN); a degenerate
+    [s, s] interval when the values do not vary (n = 1 included); the percentile interval where
+    BCa is undefined (a few values whose jackknife estimates are all equal)."""
+    from scipy.stats import bootstrap
+
     values = np.asarray(values, float)
     values = values[np.isfinite(values)]
     if values.size == 0:
         return Interval(np.nan, np.nan, np.nan, 0)
-    means = values[rng.integers(0, values.size, (resamples, values.size))].mean(axis=1)
-    tail = (1 - level) / 2 * 100
-    low, high = np.percentile(means, [tail, 100 - tail])
-    return Interval(float(values.mean()), float(low), float(high), int(values.size))
+    estimate = float(statistic(values, axis=-1))
+    if np.ptp(values) == 0:
+        return Interval(estimate, estimate, estimate, int(values.size))
+    for method in ("BCa", "percentile"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # BCa warns where it is undefined (NaN bounds)
+            result = bootstrap(
+                (values,), statistic, n_resamples=resamples, confidence_level=level,
+                method=method, rng=rng,
+            )  # fmt: skip
+        low, high = result.confidence_interval
+        if np.isfinite(low) and np.isfinite(high):
+            break
+    return Interval(estimate, float(low), float(high), int(values.size))
+
+
+def holm(p_values: FloatArray) -> FloatArray:
+    """Holm's step-down adjustment of a family of (k,) p-values; NaN entries stay NaN and do
+    not count in the family. Adjusted ``p_(i) = max_{j ≤ i} min(1, (m − j + 1) p_(j))`` for the
+    ascending order ``p_(1) ≤ … ≤ p_(m)``: reject where the adjusted p < α."""
+    p = np.asarray(p_values, float)
+    out = np.full(p.shape, np.nan)
+    finite = np.flatnonzero(np.isfinite(p))
+    order = finite[np.argsort(p[finite], kind="stable")]
+    m = order.size
+    scaled = np.minimum(1.0, (m - np.arange(m)) * p[order])
+    out[order] = np.maximum.accumulate(scaled)
+    return out
+
+
+def probability_of_improvement(a: FloatArray, b: FloatArray, tasks) -> float:
+    """``P(A > B)``: for each task, the probability that a run of A (values ``a``) beats a run of
+    B (``b``), ties ½, i.e. ``U / (n_A n_B)`` of the Mann–Whitney test; the mean over tasks.
+    ``a``, ``b`` (n,), ``tasks`` (n,) the task of each pair of runs; NaN values are dropped."""
+    from scipy.stats import mannwhitneyu
+
+    a, b, tasks = np.asarray(a, float), np.asarray(b, float), list(tasks)
+    shares = []
+    for task in dict.fromkeys(tasks):
+        pick = np.array([t == task for t in tasks])
+        x, y = a[pick], b[pick]
+        x, y = x[np.isfinite(x)], y[np.isfinite(y)]
+        if x.size and y.size:
+            shares.append(mannwhitneyu(x, y).statistic / (x.size * y.size))
+    return float(np.mean(shares)) if shares else np.nan
 
 
 @dataclass(frozen=True)

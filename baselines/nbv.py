@@ -12,6 +12,9 @@ E[I(a_T)] − α · cost(a_T), with E[I] the predicted gain of one viewpoint sta
 - Without candidates the goal is a uniformly random valid goal (``info["action_mask"]``).
 
 All randomness comes from the generator seeded by :meth:`NbvPolicy.reset`.
+
+A policy may fix the visibility model its gains are predicted with (``nbv-nobs@fov`` names
+``NbvNobs(visibility="fov")``); by default it uses the environment's ``NbvConfig.visibility``.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.errors import ConfigError, NbvGymError
+from nbv_gym.nbv.visibility import VISIBILITY_MODELS
 
 #: The statistics an NBV policy can use, as in the layer names ``gain_<statistic>``.
 STATISTICS: tuple[str, ...] = ("nobs", "rmin", "nomega", "sigma")
@@ -34,9 +38,17 @@ class NbvPolicy:
         statistic: one of :data:`STATISTICS`.
         alpha: weight of the travel cost.
         uniform_tolerance: near-uniform threshold of max / min − 1 over the candidates' gains.
+        visibility: the visibility model of the gain prediction
+            (:data:`~nbv_gym.nbv.visibility.VISIBILITY_MODELS`), or None for the environment's.
     """
 
-    def __init__(self, statistic: str, alpha: float = 2.0, uniform_tolerance: float = 0.05):
+    def __init__(
+        self,
+        statistic: str,
+        alpha: float = 2.0,
+        uniform_tolerance: float = 0.05,
+        visibility: str | None = None,
+    ):
         if statistic not in STATISTICS:
             raise ConfigError(
                 f"statistic: expected one of {', '.join(STATISTICS)}, got {statistic!r}"
@@ -45,7 +57,12 @@ class NbvPolicy:
             raise ConfigError(f"alpha: must be ≥ 0, got {alpha}")
         if not uniform_tolerance >= 0:
             raise ConfigError(f"uniform_tolerance: must be ≥ 0, got {uniform_tolerance}")
+        if visibility is not None and visibility not in VISIBILITY_MODELS:
+            raise ConfigError(
+                f"visibility: expected one of {', '.join(VISIBILITY_MODELS)}, got {visibility!r}"
+            )
         self.statistic = statistic
+        self.visibility = visibility
         self.alpha = float(alpha)
         self.uniform_tolerance = float(uniform_tolerance)
         self.gain_layer = f"gain_{statistic}"
@@ -77,29 +94,29 @@ class NbvPolicy:
 class NbvNobs(NbvPolicy):
     """``nbv-nobs``: gain in the number of observations."""
 
-    def __init__(self) -> None:
-        super().__init__("nobs")
+    def __init__(self, visibility: str | None = None) -> None:
+        super().__init__("nobs", visibility=visibility)
 
 
 class NbvRmin(NbvPolicy):
     """``nbv-rmin``: gain in the smallest observation range."""
 
-    def __init__(self) -> None:
-        super().__init__("rmin")
+    def __init__(self, visibility: str | None = None) -> None:
+        super().__init__("rmin", visibility=visibility)
 
 
 class NbvNomega(NbvPolicy):
     """``nbv-nomega``: gain in the number of azimuth sectors observed from."""
 
-    def __init__(self) -> None:
-        super().__init__("nomega")
+    def __init__(self, visibility: str | None = None) -> None:
+        super().__init__("nomega", visibility=visibility)
 
 
 class NbvSigma(NbvPolicy):
     """``nbv-sigma``: gain in the spherical variance of the viewing directions."""
 
-    def __init__(self) -> None:
-        super().__init__("sigma")
+    def __init__(self, visibility: str | None = None) -> None:
+        super().__init__("sigma", visibility=visibility)
 
 
 def near_uniform(gains: np.ndarray, tolerance: float) -> bool:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nbv_gym.nbv import CANDIDATES_LAYER, GAIN_LAYERS, GainPredictor, NbvConfig
+from nbv_gym.nbv import CANDIDATES_LAYER, GAIN_LAYERS, GainPredictor, NbvConfig, realised_gains
 from nbv_gym.simulator import Simulator, StepOutcome
 
 #: Names of the optional layers and what they hold (flat (3600,) float32, goal order).
@@ -23,7 +23,13 @@ class OptionalLayers:
     """Computes the requested optional layers after each scan (any gain layer brings the
     candidate mask along). The occlusion grid behind the
     gains is kept up to date after every scan (only the touched cells), so a request costs one
-    prediction for all requested gain layers together."""
+    prediction for all requested gain layers together.
+
+    Calibration: after each step :meth:`calibration` gives, per requested gain layer, the gain
+    predicted for the goal the robot moved to (``predicted_gain``) and the gain its scan realised
+    (``realised_gain``, :func:`~nbv_gym.nbv.realised_gains` on the statistics before and after);
+    both NaN after a reset.
+    """
 
     def __init__(self, sim: Simulator, names: tuple[str, ...], config: NbvConfig):
         self.sim = sim
@@ -32,6 +38,10 @@ class OptionalLayers:
         voxel_res = sim.config.mapping.map.resolution_m
         self.config = config
         self.predictor = GainPredictor(sim.goal_grid, config, voxel_res) if self.names else None
+        self.gains = tuple(name for name in self.names if name in GAIN_LAYERS)
+        self._layers: dict[str, np.ndarray] = {}
+        self._before: tuple[np.ndarray, ...] | None = None
+        self._calibration = self._unknown()
 
     def bounds(self) -> dict[str, float]:
         """Upper bound of each requested layer: a gain sums at most one cell gain (≤ ln(1 /
@@ -47,15 +57,42 @@ class OptionalLayers:
         """Forget per-episode state (the occlusion grid of the previous map)."""
         if self.predictor is not None:
             self.predictor.reset()
+        self._layers, self._before, self._calibration = {}, None, self._unknown()
+
+    def calibration(self) -> dict[str, dict[str, float]]:
+        """``{"predicted_gain": {layer: value}, "realised_gain": {layer: value}}`` of the last
+        step, per requested gain layer (``{}`` when no gain layer is requested)."""
+        return self._calibration
+
+    def _unknown(self) -> dict[str, dict[str, float]]:
+        if not self.gains:
+            return {}
+        nan = {name: float("nan") for name in self.gains}
+        return {"predicted_gain": nan, "realised_gain": dict(nan)}
+
+    def _calibrate(self, statistics) -> None:
+        """Compare the last prediction at the goal reached with what the scan realised."""
+        now = (statistics.n_obs, statistics.r_min, statistics.sector_mask, statistics.sum_u)
+        if self._before is not None and self._layers:
+            goal = self.sim.state.navigation.robot_goal
+            realised = realised_gains(self._before, now, self.config)
+            self._calibration = {
+                "predicted_gain": {n: float(self._layers[n][goal]) for n in self.gains},
+                "realised_gain": {n: realised[n] for n in self.gains},
+            }
+        self._before = tuple(np.array(a, copy=True) for a in now)
 
     def compute(self, outcome: StepOutcome) -> dict[str, np.ndarray]:
         """The requested layers for the simulator's state after ``outcome``'s scan."""
         if self.predictor is None:
             return {}
         state = self.sim.state
+        if self.gains:
+            self._calibrate(state.statistics)
         self.predictor.observe(state.occupancy, outcome.touched)
         robot_xy = np.array([self.sim.pose.x, self.sim.pose.y])
         layers = self.predictor.predict(
             state.statistics, robot_xy, state.navigation.goal_mask(), self.names
         )
-        return {name: layers[name].ravel() for name in self.names}
+        self._layers = {name: layers[name].ravel() for name in self.names}
+        return self._layers

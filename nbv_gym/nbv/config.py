@@ -23,7 +23,11 @@ class NbvConfig:
             update would not observe either), metres.
         sensor_height_m: a candidate's sensor stands at its goal cell's centre (x, y) and this
             height, metres.
-        occluding_probability: a cell of G occludes iff it holds a map voxel with p ≥ this.
+        occluding_probability: a cell of G occludes iff it holds a map voxel with p ≥ this
+            (models ``authors``, ``sphere``, ``fov``; SPEC §4).
+        surface_probability: under the ``physical`` model a cell of G is a known surface — it
+            stops a ray and returns it — iff it holds a voxel with p ≥ this (the map's occupied
+            threshold: one hit is enough, as for the lidar's real rays).
         gain_floor: the floor f of the logarithmic gains (``ln(â / max(b, f))``).
         unobserved_r_min_m: r_min of a never-observed cell, metres.
         aggregate: E[I(a_T)] is the ``"sum"`` (authors' code) or the ``"mean"`` (paper) of the gains
@@ -43,6 +47,7 @@ class NbvConfig:
     min_range_m: float = math.sqrt(3.0)
     sensor_height_m: float = 0.42
     occluding_probability: float = 0.8
+    surface_probability: float = 0.5
     gain_floor: float = 1e-3
     unobserved_r_min_m: float = 100.0
     aggregate: Literal["sum", "mean"] = "sum"
@@ -84,6 +89,11 @@ class NbvConfig:
             f"must be in (0, 1), got {self.occluding_probability}",
         )
         check(
+            0 < self.surface_probability < 1,
+            "surface_probability",
+            f"must be in (0, 1), got {self.surface_probability}",
+        )
+        check(
             self.aggregate in ("sum", "mean"),
             "aggregate",
             f"expected 'sum' or 'mean', got {self.aggregate!r}",
@@ -101,6 +111,11 @@ class NbvConfig:
             f"must be ≥ sensor_range_m ({self.sensor_range_m}) so a first observation always "
             f"gains, got {self.unobserved_r_min_m}",
         )
+
+    @property
+    def blocking_probability(self) -> float:
+        """p of a voxel that blocks sight lines under this config's model."""
+        return self.surface_probability if self.visibility == "physical" else self.occluding_probability
 
     def sight_model(self) -> SightModel:
         """The geometry of this config's visibility model."""

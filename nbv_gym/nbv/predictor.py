@@ -35,7 +35,7 @@ class GainPredictor:
     def __init__(self, grid: GridSpec, config: NbvConfig, voxel_res: float = 0.1):
         self.grid = grid
         self.config = config
-        self.occlusion = OcclusionGrid(grid, voxel_res, config.occluding_probability)
+        self.occlusion = OcclusionGrid(grid, voxel_res, config.blocking_probability)
         self._centres = goal_centres_xy(grid)
 
     def reset(self) -> None:

@@ -14,8 +14,10 @@ pass through it. The models (:data:`VISIBILITY_MODELS`, SPEC §4) credit:
 - ``fov``: as ``sphere``, restricted to sight lines whose elevation lies in the lidar's vertical
   field of view;
 - ``physical``: what the statistics update (SPEC §3) would really touch: a clear sight line inside
-  the field of view and the range window that *ends on a surface the map already knows* (an
-  occluding cell) credits that cell and every cell it crosses whose own range is in the window. A
+  the field of view and the range window that *ends on a surface the map already knows* (a cell
+  holding an occupied voxel, p ≥ ``NbvConfig.surface_probability`` = 0.5; such cells are also what
+  blocks the lines, as a real ray stops at the first surface) credits that cell and every cell it
+  crosses whose own range is in the window. A
   line ending in free or unknown space credits nothing: the lidar's ray would either return from
   the ground (below 0.2 m, ignored by the statistics) or from nowhere.
 

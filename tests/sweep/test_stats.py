@@ -71,3 +71,22 @@ def test_probability_of_improvement_by_hand():
     tasks = [("w", 0), ("w", 0), ("w", 0), ("v", 1)]
     assert probability_of_improvement(a, b, tasks) == pytest.approx(0.75)
     assert probability_of_improvement(b, a, tasks) == pytest.approx(0.25)
+
+
+def test_pairwise_table_adds_holm_and_probability_of_improvement():
+    import pandas as pd
+
+    from nbv_gym.sweep.report import pairwise_table
+
+    rows = []
+    for world in ("w1", "w2"):
+        for repeat in range(4):
+            q = {"a": 0.5 + 0.01 * repeat, "b": 0.2 + 0.02 * repeat, "c": 0.3 + 0.01 * repeat}
+            rows += [dict(world=world, noise=1, repeat=repeat, policy=p, q=v) for p, v in q.items()]
+    table = pairwise_table(pd.DataFrame(rows), ["a", "b", "c"], "q", np.random.default_rng(0))
+    table = table.set_index(["a", "b"])
+    # a beats every b and c run; b (0.20–0.26) against c (0.30–0.33): b wins none → 0
+    assert table.loc[("a", "b"), "p_improvement"] == 1.0
+    assert table.loc[("b", "c"), "p_improvement"] == 0.0
+    np.testing.assert_allclose(table["p_holm"], holm(table["p_wilcoxon"].to_numpy()))
+    assert (table["p_holm"] >= table["p_wilcoxon"]).all()

@@ -1,13 +1,12 @@
 """Mapping: the occupancy map, the viewpoint-statistics grid G and the navigation layer (SPEC §3–4)."""
 
 from nbv_gym.mapping.navigation import NavigationConfig, NavigationLayer
-from nbv_gym.mapping.occupancy import InsertResult, MapConfig, OccupancyMap
-from nbv_gym.mapping.state import ExplorationState, MappingConfig, ScanUpdate
+from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
+from nbv_gym.mapping.state import ExplorationState, MappingConfig
 from nbv_gym.mapping.statistics import StatisticsConfig, ViewpointStatistics
 
 __all__ = [
     "ExplorationState",
-    "InsertResult",
     "MapConfig",
     "MappingConfig",
     "NavigationConfig",

@@ -125,6 +125,7 @@ class NavigationLayer:
         self.frontier_mask = np.zeros(shape, bool)
         self.distance = np.full(shape, np.inf)
         self.robot_xy = np.zeros(2)
+        self._goals: _Goals | None = None
 
     @classmethod
     def from_config(cls, config: NavigationConfig, goal_grid: GridSpec) -> NavigationLayer:
@@ -147,13 +148,19 @@ class NavigationLayer:
                 f"known and occupied must have the nav grid's shape {shape}, "
                 f"got {np.shape(known)} and {np.shape(occupied)}"
             )
-        self.known = np.asarray(known, bool)
-        self.occupied = np.asarray(occupied, bool)
-        free = self.known & ~self.occupied
+        self.known[...] = known
+        self.occupied[...] = occupied
+        self.reproject()
+
+    def reproject(self) -> None:
+        """Recompute eroded free space and frontiers from :attr:`known` and :attr:`occupied`
+        (after they were changed in place, e.g. by :meth:`OccupancyMap.project_into`)."""
+        free = self.free
         self.eroded_free = ndimage.binary_erosion(free, self._robot_disc, border_value=0)
         unknown_near = ndimage.binary_dilation(~self.known, self._unknown_disc)
         occupied_near = ndimage.binary_dilation(self.occupied, self._occupied_disc)
         self.frontier_mask = unknown_near & self.eroded_free & ~occupied_near & self._inner
+        self._goals = None
 
     def plan(self, robot_xy: FloatArray) -> None:
         """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free
@@ -163,6 +170,14 @@ class NavigationLayer:
         start = (int(start[0]), int(start[1]))
         escape = self._escape_zone(start) & self.free
         self.distance = path_lengths(self.eroded_free | escape, start, self.grid.res)
+        self._goals = None
+
+    def clear(self) -> None:
+        """Forget the map: nothing known, the robot at the origin, path lengths from there."""
+        self.known[...] = False
+        self.occupied[...] = False
+        self.reproject()
+        self.plan(np.zeros(2))
 
     def _escape_zone(self, cell: tuple[int, int]) -> BoolArray:
         """(nx, ny) bool: the cells within the escape radius of ``cell``."""
@@ -197,28 +212,52 @@ class NavigationLayer:
         return int(i * ny + j) if 0 <= i < nx and 0 <= j < ny else -1
 
     def goal_path_length(self) -> np.ndarray:
-        """(n_goals,) float64 path length (metres) from the robot to each goal, inf if unreachable."""
-        i, j = self._goal_cells.T
-        return np.where(self.eroded_free[i, j], self.distance[i, j], np.inf)
+        """(n_goals,) float64 path length (metres) from the robot to each goal, inf if unreachable
+        (read-only; computed once per plan, like the other goal read-outs)."""
+        return self._goal_arrays().path_length
 
     def goal_mask(self) -> np.ndarray:
-        """(n_goals,) bool: valid goals."""
-        mask = np.isfinite(self.goal_path_length()) & self._goal_inner
-        if self.robot_goal >= 0:
-            mask[self.robot_goal] = False
-        return mask
+        """(n_goals,) bool: valid goals (read-only)."""
+        return self._goal_arrays().mask
 
     def goal_cost(self) -> np.ndarray:
-        """(n_goals,) float64 min(path length / search range, 1); 1 for invalid goals."""
-        cost = np.minimum(self.goal_path_length() / self.search_range_m, 1.0)
-        return np.where(self.goal_mask(), cost, 1.0)
+        """(n_goals,) float64 min(path length / search range, 1); 1 for invalid goals
+        (read-only)."""
+        return self._goal_arrays().cost
 
     def frontier_goal_mask(self) -> np.ndarray:
         """(n_goals,) bool: valid goals whose nav cell is or touches (8-neighbourhood) a frontier
-        cell."""
-        near = ndimage.binary_dilation(self.frontier_mask, np.ones((3, 3), bool))
+        cell (read-only)."""
+        return self._goal_arrays().frontier
+
+    def _goal_arrays(self) -> _Goals:
+        """The goal read-outs of the current projection and plan, computed on first use."""
+        if self._goals is None:
+            self._goals = self._compute_goals()
+        return self._goals
+
+    def _compute_goals(self) -> _Goals:
         i, j = self._goal_cells.T
-        return near[i, j] & self.goal_mask()
+        path_length = np.where(self.eroded_free[i, j], self.distance[i, j], np.inf)
+        mask = np.isfinite(path_length) & self._goal_inner
+        if self.robot_goal >= 0:
+            mask[self.robot_goal] = False
+        cost = np.where(mask, np.minimum(path_length / self.search_range_m, 1.0), 1.0)
+        near = ndimage.binary_dilation(self.frontier_mask, np.ones((3, 3), bool))
+        frontier = near[i, j] & mask
+        for array in (path_length, mask, cost, frontier):
+            array.flags.writeable = False
+        return _Goals(path_length, mask, cost, frontier)
+
+
+@dataclass(frozen=True)
+class _Goals:
+    """The (n_goals,) read-outs of one projection and plan (see the NavigationLayer methods)."""
+
+    path_length: np.ndarray
+    mask: np.ndarray
+    cost: np.ndarray
+    frontier: np.ndarray
 
 
 def disc(radius_m: float, cell_m: float) -> np.ndarray:

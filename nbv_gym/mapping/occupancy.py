@@ -14,17 +14,18 @@ marking bitset over the cube of the sensor range (2.0 MB for 20 m at 0.1 m).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from numba import njit
 
+from nbv_gym.arrayfiles import array_of, read_saved
 from nbv_gym.arrays import BoolArray, FloatArray
 from nbv_gym.config import check
-from nbv_gym.errors import ConfigError, NbvGymError, PoseError
+from nbv_gym.errors import ConfigError, DataFileError, NbvGymError, PoseError
 from nbv_gym.grid import GridSpec
-from nbv_gym.mapping.traversal import TILE, insert_scan
+from nbv_gym.mapping.traversal import TILE, insert_scan, tile_index
 
 _FORMAT = "nbv_gym.OccupancyMap/1"
 
@@ -68,21 +69,36 @@ class MapConfig:
 
 
 @dataclass(frozen=True)
-class InsertResult:
-    """What one :meth:`OccupancyMap.insert` did.
+class ScanUpdate:
+    """What one scan did to the map (:meth:`OccupancyMap.insert`,
+    :meth:`ExplorationState.apply <nbv_gym.mapping.ExplorationState.apply>`).
 
     Attributes:
         n_points: returns given.
         n_dropped: returns dropped for a NaN or infinite coordinate.
         n_occupied: voxels that received a hit.
-        touched: bool mask over the ``region`` grid passed to ``insert``: cells holding a voxel whose
-            value changed (empty (0, 0, 0) when no region was given).
+        touched: bool mask over the ``region`` grid passed to ``insert`` (G in the exploration
+            state): cells holding a voxel whose value changed (empty (0, 0, 0) without a region).
+        columns: (nx, ny) bool over the navigation grid (set by the exploration state): cells
+            that may hold a changed voxel of the navigation bands, to re-project (empty (0, 0)
+            from a bare map insert).
     """
 
     n_points: int
     n_dropped: int
     n_occupied: int
     touched: BoolArray
+    columns: BoolArray = field(default_factory=lambda: np.zeros((0, 0), bool))
+
+    @property
+    def touched_cells(self) -> np.ndarray:
+        """(k,) int64 flat (C-order) indices of the touched cells of the region."""
+        return np.flatnonzero(self.touched)
+
+    @property
+    def changed_columns(self) -> np.ndarray:
+        """(m, 2) int64 x, y indices of the changed columns."""
+        return np.argwhere(self.columns)
 
 
 class OccupancyMap:
@@ -128,6 +144,8 @@ class OccupancyMap:
         )
         self._window_shape = self._marking_window(grid, max_range_m)
         self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
+        self._dirty = np.array([self._tiles_xy, (0, 0)], np.int64)  # x, y tile box written since
+        # the last clear(): low (row 0) and high (row 1, exclusive); empty when low ≥ high
 
     @classmethod
     def from_config(cls, config: MapConfig, max_range_m: float) -> OccupancyMap:
@@ -154,7 +172,7 @@ class OccupancyMap:
 
     def insert(
         self, origin: FloatArray, points: FloatArray, region: GridSpec | None = None
-    ) -> InsertResult:
+    ) -> ScanUpdate:
         """Insert one scan.
 
         Args:
@@ -172,6 +190,8 @@ class OccupancyMap:
         finite = np.isfinite(points).all(axis=1)
         points_grid = (points[finite] - self.grid.low) / self.grid.res
         touched, cells = self._touch_grid(region)
+        window = self._window(origin_grid)
+        self._mark_dirty(window)
         self._marks[:] = 0
         n_occupied = insert_scan(
             self._store,
@@ -182,11 +202,25 @@ class OccupancyMap:
             self._deltas,
             self._bounds,
             self._marks,
-            self._window(origin_grid),
+            window,
             touched,
             cells,
         )
-        return InsertResult(len(points), int((~finite).sum()), int(n_occupied), touched)
+        return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)
+
+    def clear(self) -> None:
+        """Forget every voxel (all unknown again), reusing the storage: only the tiles written
+        since the last clear are reset."""
+        (x0, y0), (x1, y1) = self._dirty
+        if x0 < x1 and y0 < y1:
+            self._layers()[:, x0:x1, y0:y1] = np.nan
+        self._dirty[:] = [self._tiles_xy, (0, 0)]
+
+    def _mark_dirty(self, window: np.ndarray) -> None:
+        """Grow the written tile box by the x, y extent of a scan's marking ``window``."""
+        low, limit = window[0, :2], window[1, :2]
+        self._dirty[0] = np.minimum(self._dirty[0], low // TILE)
+        self._dirty[1] = np.maximum(self._dirty[1], -(-(low + limit) // TILE))
 
     def _origin_in_grid(self, origin: FloatArray) -> np.ndarray:
         """(3,) float64 sensor position in grid units; PoseError outside the box."""
@@ -318,21 +352,32 @@ class OccupancyMap:
             ``known_band_m`` is known; (nx, ny) bool ``occupied``: some voxel whose centre lies in
             ``occupied_band_m`` is occupied.
         """
+        known = np.zeros(grid.shape[:2], bool)
+        occupied = np.zeros(grid.shape[:2], bool)
+        self.project_into(grid, known_band_m, occupied_band_m, known, occupied)
+        return known, occupied
+
+    def project_into(
+        self,
+        grid: GridSpec,
+        known_band_m: tuple[float, float],
+        occupied_band_m: tuple[float, float],
+        known: np.ndarray,
+        occupied: np.ndarray,
+        cells: np.ndarray | None = None,
+    ) -> None:
+        """:meth:`project` written in place into the (nx, ny) bool ``known`` and ``occupied``,
+        for the (m, 2) x, y ``cells`` of ``grid`` only (all when None): after a scan, the
+        columns it changed (:attr:`ScanUpdate.columns`)."""
         (x0, y0), factor = self._column_block(grid)
-        nx, ny = grid.shape[:2]
-        layers = self._layers()
-        known = np.zeros(self._tiles_xy + (TILE, TILE), bool)
-        for k in range(*self._band_layers(known_band_m)):
-            known |= ~np.isnan(layers[k])
-        occupied = np.zeros_like(known)
-        for k in range(*self._band_layers(occupied_band_m)):
-            occupied |= _at_least(layers[k], self._lo_occupied)
-        return tuple(
-            _untile(m)[x0 : x0 + nx * factor, y0 : y0 + ny * factor]
-            .reshape(nx, factor, ny, factor)
-            .any(axis=(1, 3))
-            for m in (known, occupied)
-        )
+        if cells is None:
+            cells = np.argwhere(np.ones(grid.shape[:2], bool))
+        _project_columns(
+            self._store, self._dims, x0, y0, factor,
+            np.array(self._band_layers(known_band_m), np.int64),
+            np.array(self._band_layers(occupied_band_m), np.int64),
+            self._lo_occupied, np.asarray(cells, np.int64).reshape(-1, 2), known, occupied,
+        )  # fmt: skip
 
     def _layers(self) -> np.ndarray:
         """(nz, tiles_x, tiles_y, 4, 4) view of the tiled storage."""
@@ -425,14 +470,22 @@ class OccupancyMap:
 
     @classmethod
     def load(cls, path: str | Path) -> OccupancyMap:
-        """Read a map written by :meth:`save`."""
-        with np.load(Path(path)) as data:
-            if "format" not in data or str(data["format"]) != _FORMAT:
-                raise NbvGymError(f"{path} is not an nbv-gym occupancy map ({_FORMAT} .npz file)")
-            grid = GridSpec.from_arrays(data)
-            params = dict(zip(_PARAM_KEYS, (float(v) for v in data["params"]), strict=True))
-            logodds = np.full(grid.shape, np.nan, np.float32)
-            logodds.ravel()[data["index"]] = data["logodds"]
+        """Read a map written by :meth:`save`; :class:`DataFileError` for any other file, or a
+        grid of more than :data:`MAX_LOAD_VOXELS` voxels (checked before allocating)."""
+        data = read_saved(path, _FORMAT, "occupancy map")
+        grid = GridSpec.from_arrays(data, str(path))
+        if math.prod(grid.shape) > MAX_LOAD_VOXELS:
+            raise DataFileError(
+                f"{path}: a map of {grid.shape} voxels is larger than {MAX_LOAD_VOXELS} voxels"
+            )
+        values = array_of(data, "params", "f", (len(_PARAM_KEYS),), path)
+        params = dict(zip(_PARAM_KEYS, values.tolist(), strict=True))
+        _check_params(params, path)
+        index = array_of(data, "index", "iu", (None,), path)
+        if index.size and not (0 <= index.min() and index.max() < grid.size):
+            raise DataFileError(f"{path}: voxel indices outside the {grid.shape} grid")
+        logodds = np.full(grid.shape, np.nan, np.float32)
+        logodds.ravel()[index] = array_of(data, "logodds", "f", index.shape, path)
         return cls.from_logodds(grid, logodds, **params)
 
     @classmethod
@@ -446,6 +499,7 @@ class OccupancyMap:
             )
         occupancy = cls(grid, **params)
         occupancy._set_dense(logodds)
+        occupancy._dirty[:] = [(0, 0), occupancy._tiles_xy]
         return occupancy
 
     def to_ply(self, path: str | Path, min_probability: float = 0.5) -> int:
@@ -471,6 +525,19 @@ class OccupancyMap:
 
 
 _PARAM_KEYS = ("p_hit", "p_miss", "p_clamp_min", "p_clamp_max", "p_occupied", "max_range_m")
+#: The largest map :meth:`OccupancyMap.load` reads (voxels; 4 bytes each, a few copies while
+#: loading): 8 × the default 0.1 m map, the default box at 0.05 m.
+MAX_LOAD_VOXELS = 1 << 28
+
+
+def _check_params(params: dict[str, float], path: str | Path) -> None:
+    """:class:`DataFileError` unless a saved map's sensor-model parameters are valid."""
+    try:
+        MapConfig(**{k: v for k, v in params.items() if k != "max_range_m"})
+    except ConfigError as error:
+        raise DataFileError(f"{path}: {error}") from None
+    if not 0 < params["max_range_m"] < math.inf:
+        raise DataFileError(f"{path}: max_range_m must be finite and > 0, got {params['max_range_m']}")
 
 
 @njit(cache=True)
@@ -500,6 +567,35 @@ def _gather_blocks(store, dims, offset, cells, f, as_probability):
     return out
 
 
+@njit(cache=True)
+def _project_columns(store, dims, x0, y0, f, known_layers, occupied_layers, lo_occupied, cells,
+                     known, occupied):  # fmt: skip
+    """Set ``known[i, j]`` and ``occupied[i, j]`` of each (i, j) of ``cells``: whether some voxel
+    of the cell's f × f columns (first column (x0 + f·i, y0 + f·j)) in the [k0, k1) layers is
+    known, respectively at least ``lo_occupied``."""
+    tiles_x, tiles_y = dims[0], dims[1]
+    for c in range(cells.shape[0]):
+        i, j = cells[c, 0], cells[c, 1]
+        xa, ya = x0 + f * i, y0 + f * j
+        known[i, j] = _any_voxel(store, tiles_x, tiles_y, xa, ya, f, known_layers, False, 0.0)
+        occupied[i, j] = _any_voxel(
+            store, tiles_x, tiles_y, xa, ya, f, occupied_layers, True, lo_occupied
+        )
+
+
+@njit(cache=True, inline="always")
+def _any_voxel(store, tiles_x, tiles_y, xa, ya, f, layers, at_least, threshold):
+    """Whether a voxel of columns [xa, xa + f) × [ya, ya + f) in ``layers`` [k0, k1) is known
+    (``at_least`` False) or known and ≥ ``threshold`` (``at_least`` True)."""
+    for k in range(layers[0], layers[1]):
+        for a in range(xa, xa + f):
+            for b in range(ya, ya + f):
+                value = store[tile_index(a, b, k, tiles_x, tiles_y)]
+                if (value >= threshold) if at_least else not np.isnan(value):
+                    return True
+    return False
+
+
 def _probability(logodds: np.ndarray) -> np.ndarray:
     """float32 probability of float32 log-odds, 0.5 for NaN (unknown)."""
     logodds = np.ascontiguousarray(logodds, dtype=np.float32)
@@ -527,12 +623,6 @@ def _at_least(logodds: np.ndarray, threshold: np.float32) -> np.ndarray:
     return np.greater_equal(
         logodds, threshold, where=~np.isnan(logodds), out=np.zeros(logodds.shape, bool)
     )
-
-
-def _untile(mask: np.ndarray) -> np.ndarray:
-    """(tiles_x · 4, tiles_y · 4) array of a (tiles_x, tiles_y, 4, 4) tiled layer."""
-    tx, ty = mask.shape[:2]
-    return mask.transpose(0, 2, 1, 3).reshape(tx * TILE, ty * TILE)
 
 
 def _is_whole(x, tol: float = 1e-6):

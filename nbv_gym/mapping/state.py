@@ -1,17 +1,19 @@
 """The exploration state: the occupancy map, the statistics grid G and the navigation layer, updated
-together by one call per scan."""
+together by one call per scan (work proportional to what the scan changed)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from nbv_gym.arrays import BoolArray, FloatArray
+from nbv_gym.arrays import FloatArray
 from nbv_gym.config import check
+from nbv_gym.grid import GridSpec
 from nbv_gym.lidar import Scan
 from nbv_gym.mapping.navigation import NavigationConfig, NavigationLayer
-from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap
+from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
 from nbv_gym.mapping.statistics import StatisticsConfig, ViewpointStatistics
 
 
@@ -37,30 +39,13 @@ class MappingConfig:
         )
 
 
-@dataclass(frozen=True)
-class ScanUpdate:
-    """What :meth:`ExplorationState.apply` did with one scan.
-
-    Attributes:
-        n_points: returns in the scan.
-        n_dropped: returns dropped for a NaN or infinite coordinate.
-        n_occupied: map voxels that received a hit.
-        touched: (nx, ny, nz) bool over G: cells holding a map voxel this scan changed.
-    """
-
-    n_points: int
-    n_dropped: int
-    n_occupied: int
-    touched: BoolArray
-
-    @property
-    def touched_cells(self) -> np.ndarray:
-        """(k,) int64 flat (C-order) indices over G of the touched cells."""
-        return np.flatnonzero(self.touched)
-
-
 class ExplorationState:
-    """The state every policy reads: ``occupancy``, ``statistics`` and ``navigation``."""
+    """The state every policy reads: ``occupancy``, ``statistics`` and ``navigation``.
+
+    Insertion flags the cells of G, extended downwards to cover the navigation bands, that hold
+    a changed voxel: G's part says which cuboids to re-evaluate, the band's part which navigation
+    columns to re-project.
+    """
 
     def __init__(
         self, occupancy: OccupancyMap, statistics: ViewpointStatistics, navigation: NavigationLayer
@@ -68,6 +53,10 @@ class ExplorationState:
         self.occupancy = occupancy
         self.statistics = statistics
         self.navigation = navigation
+        self._region, self._below, self._band = _insertion_region(
+            statistics.grid, navigation, occupancy.grid.res
+        )
+        self._nav_factor = round(statistics.grid.res / navigation.grid.res)
 
     @classmethod
     def from_config(cls, config: MappingConfig) -> ExplorationState:
@@ -81,21 +70,60 @@ class ExplorationState:
 
     def apply(self, scan: Scan, robot_xy: FloatArray | None = None) -> ScanUpdate:
         """Insert ``scan`` (its map-frame points, seen from ``scan.origin``) into the map and the
-        statistics, then update the navigation layer for the robot at ``robot_xy`` (2,) metres
-        (default: the scan's sensor position).
+        statistics, then update the navigation layer — re-projecting only the columns the scan
+        changed — and plan once for the robot at ``robot_xy`` (2,) metres (default: the scan's
+        sensor position).
 
         Raises:
             PoseError: the sensor lies outside the map box.
         """
-        inserted = self.occupancy.insert(scan.origin, scan.points_map, region=self.statistics.grid)
+        inserted = self.occupancy.insert(scan.origin, scan.points_map, region=self._region)
         self.statistics.update(scan.origin, scan.points_map)
-        self.update_navigation(scan.origin[:2] if robot_xy is None else robot_xy)
-        return ScanUpdate(
-            inserted.n_points, inserted.n_dropped, inserted.n_occupied, inserted.touched
-        )
+        columns = self._nav_columns(inserted.touched[:, :, self._band].any(axis=2))
+        self._project(np.argwhere(columns))
+        self.navigation.plan(scan.origin[:2] if robot_xy is None else robot_xy)
+        touched = np.ascontiguousarray(inserted.touched[:, :, self._below :])
+        return replace(inserted, touched=touched, columns=columns)
 
     def update_navigation(self, robot_xy: FloatArray) -> None:
-        """Re-project the map onto the navigation grid and re-plan from ``robot_xy`` (2,) metres."""
+        """Re-project the whole map onto the navigation grid and re-plan from ``robot_xy`` (2,)
+        metres."""
+        self._project(None)
+        self.navigation.plan(robot_xy)
+
+    def clear(self) -> None:
+        """Forget everything (an empty state, as :meth:`from_config` builds), reusing the
+        arrays."""
+        self.occupancy.clear()
+        self.statistics.clear()
+        self.navigation.clear()
+
+    def _nav_columns(self, columns: np.ndarray) -> np.ndarray:
+        """(nx, ny) bool nav cells of the (gx, gy) bool columns of G."""
+        f = self._nav_factor
+        return np.repeat(np.repeat(columns, f, axis=0), f, axis=1)
+
+    def _project(self, cells: np.ndarray | None) -> None:
+        """Re-project the (m, 2) nav ``cells`` (all when None) and recompute the layers derived
+        from the projection."""
         nav = self.navigation
-        known, occupied = self.occupancy.project(nav.grid, nav.known_band_m, nav.occupied_band_m)
-        nav.update(known, occupied, robot_xy)
+        self.occupancy.project_into(
+            nav.grid, nav.known_band_m, nav.occupied_band_m, nav.known, nav.occupied, cells
+        )
+        nav.reproject()
+
+
+def _insertion_region(
+    grid: GridSpec, navigation: NavigationLayer, voxel_m: float
+) -> tuple[GridSpec, int, slice]:
+    """G extended downwards by whole cells until it covers the navigation bands, the number of
+    cells added below, and the slice of its z layers holding the bands' voxels."""
+    bands = (*navigation.known_band_m, *navigation.occupied_band_m)
+    low, high = min(bands) - voxel_m, max(bands) + voxel_m  # voxels whose centre is in a band
+    below = max(0, math.ceil((grid.low[2] - low) / grid.res - 1e-9))
+    origin = (grid.origin[0], grid.origin[1], grid.origin[2] - below * grid.res)
+    nz = grid.shape[2] + below
+    region = GridSpec(origin, grid.res, (grid.shape[0], grid.shape[1], nz))
+    k0 = max(0, math.floor((low - origin[2]) / grid.res))
+    k1 = min(nz, math.ceil((high - origin[2]) / grid.res))
+    return region, below, slice(k0, max(k0, k1))

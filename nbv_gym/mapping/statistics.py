@@ -1,7 +1,8 @@
 """The viewpoint-statistics grid G (SPEC §3, paper §III-B).
 
 Per 1 m cell: ``n_obs`` observations; ``r_min`` the smallest range of a viewpoint (range of a cell =
-distance from the sensor to the cell's centre); the 32-sector azimuth bitmask and its popcount
+distance from the sensor to the cell's centre; +inf, the minimum of no range, while never observed);
+the 32-sector azimuth bitmask and its popcount
 ``n_omega``; the sum of the unit viewing directions ``u = (O − C) / |O − C|`` (sensor O, cell centre
 C) giving the spherical variance ``sigma_theta = 1 − |Σu| / n_obs``.
 
@@ -18,14 +19,18 @@ from pathlib import Path
 
 import numpy as np
 
+from nbv_gym.arrayfiles import array_of, read_saved
 from nbv_gym.arrays import FloatArray
 from nbv_gym.config import check
-from nbv_gym.errors import NbvGymError
+from nbv_gym.errors import DataFileError, NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.traversal import observe_scan
 
 _FORMAT = "nbv_gym.ViewpointStatistics/1"
 _ARRAYS = ("n_obs", "r_min_raw", "sector_mask", "sum_u")
+#: The grid-shaped arrays of a saved file: name, numpy dtype kinds, trailing shape.
+_SAVED_ARRAYS = (("n_obs", "iu", ()), ("r_min_raw", "f", ()), ("sector_mask", "u", ()),
+                 ("sum_u", "f", (3,)))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -86,6 +91,22 @@ class ViewpointStatistics:
         self._sum_u = np.zeros((*grid.shape, 3))
         self._stamp = np.full(grid.shape, -1, np.int64)
         self._scan_id = 0
+        nx, ny = grid.shape[:2]
+        self._columns = {
+            "n_obs": np.zeros((nx, ny), np.int64),
+            "r_min": np.full((nx, ny), np.inf),
+            "n_omega": np.zeros((nx, ny), np.int32),
+            "sigma_theta": np.zeros((nx, ny)),
+        }
+
+    def clear(self) -> None:
+        """Forget every observation (empty statistics), reusing the arrays."""
+        for array, value in ((self._n_obs, 0), (self._r_min, np.inf), (self._sectors, 0),
+                             (self._sum_u, 0.0), (self._stamp, -1)):  # fmt: skip
+            array.fill(value)
+        self._scan_id = 0
+        for name, value in (("n_obs", 0), ("r_min", np.inf), ("n_omega", 0), ("sigma_theta", 0)):
+            self._columns[name].fill(value)
 
     @classmethod
     def from_config(cls, config: StatisticsConfig, max_range_m: float) -> ViewpointStatistics:
@@ -129,25 +150,38 @@ class ViewpointStatistics:
             np.asarray(self.range_window_m),
             self.n_sectors,
         )
+        self._project(np.flatnonzero((self._stamp == self._scan_id).any(axis=2)))
         self._scan_id += 1
         return int(keep.sum())
+
+    def _project(self, columns: np.ndarray) -> None:
+        """Recompute the 2D projections (:meth:`column`) of the (m,) flat x, y ``columns``."""
+        i, j = np.unravel_index(columns, self.grid.shape[:2])
+        n_obs = self._n_obs[i, j]
+        projections = self._columns
+        projections["n_obs"][i, j] = n_obs.sum(axis=1)
+        projections["r_min"][i, j] = self._r_min[i, j].min(axis=1)
+        projections["n_omega"][i, j] = popcount(self._sectors[i, j]).max(axis=1)
+        projections["sigma_theta"][i, j] = spherical_variance(self._sum_u[i, j], n_obs).max(axis=1)
 
     # ------------------------------------------------------------------ read-out (G's shape)
 
     @property
     def n_obs(self) -> np.ndarray:
-        """(nx, ny, nz) int32 number of observations."""
-        return self._n_obs.copy()
+        """(nx, ny, nz) int32 number of observations (read-only view)."""
+        return _read_only(self._n_obs)
 
     @property
     def r_min(self) -> np.ndarray:
-        """(nx, ny, nz) float64 smallest observation range, metres; NaN where never observed."""
-        return np.where(self._n_obs > 0, self._r_min, np.nan)
+        """(nx, ny, nz) float64 smallest observation range, metres; +inf where never observed
+        (read-only view)."""
+        return _read_only(self._r_min)
 
     @property
     def sector_mask(self) -> np.ndarray:
-        """(nx, ny, nz) uint32 azimuth sectors observed from: bit s set iff sector s was."""
-        return self._sectors.copy()
+        """(nx, ny, nz) uint32 azimuth sectors observed from: bit s set iff sector s was
+        (read-only view)."""
+        return _read_only(self._sectors)
 
     @property
     def n_omega(self) -> np.ndarray:
@@ -156,14 +190,22 @@ class ViewpointStatistics:
 
     @property
     def sum_u(self) -> np.ndarray:
-        """(nx, ny, nz, 3) float64 sum of the unit vectors cell centre → sensor."""
-        return self._sum_u.copy()
+        """(nx, ny, nz, 3) float64 sum of the unit vectors cell centre → sensor (read-only
+        view)."""
+        return _read_only(self._sum_u)
 
     @property
     def sigma_theta(self) -> np.ndarray:
         """(nx, ny, nz) float64 spherical variance 1 − |Σu| / n_obs in [0, 1]; 0 where never
         observed (and after one observation)."""
         return spherical_variance(self._sum_u, self._n_obs)
+
+    def column(self, name: str) -> np.ndarray:
+        """(nx, ny) projection over z of a statistic, kept up to date scan by scan for the
+        columns the scan touched (read-only view): ``"n_obs"`` int64 sum, ``"r_min"`` float64
+        minimum (+inf: never observed), ``"n_omega"`` int32 maximum, ``"sigma_theta"`` float64
+        maximum."""
+        return _read_only(self._columns[name])
 
     # ------------------------------------------------------------------ files
 
@@ -184,24 +226,36 @@ class ViewpointStatistics:
 
     @classmethod
     def load(cls, path: str | Path) -> ViewpointStatistics:
-        """Read statistics written by :meth:`save`."""
-        with np.load(Path(path)) as data:
-            if "format" not in data or str(data["format"]) != _FORMAT:
-                raise NbvGymError(f"{path} is not an nbv-gym statistics file ({_FORMAT} .npz)")
-            grid = GridSpec.from_arrays(data)
-            low, high = (float(v) for v in data["range_window_m"])
-            stats = cls(
-                grid,
-                n_sectors=int(data["n_sectors"]),
-                min_range_m=low,
-                max_range_m=high,
-                min_return_z_m=float(data["min_return_z_m"]),
-            )
-            stats._n_obs[...] = data["n_obs"]
-            stats._r_min[...] = data["r_min_raw"]
-            stats._sectors[...] = data["sector_mask"]
-            stats._sum_u[...] = data["sum_u"]
+        """Read statistics written by :meth:`save`; :class:`DataFileError` for any other file
+        (array shapes are checked against the grid before it is allocated)."""
+        data = read_saved(path, _FORMAT, "statistics file")
+        grid = GridSpec.from_arrays(data, str(path))
+        arrays = [
+            array_of(data, name, kinds, (*grid.shape, *extra), path)
+            for name, kinds, extra in _SAVED_ARRAYS
+        ]
+        low, high = array_of(data, "range_window_m", "f", (2,), path).tolist()
+        n_sectors = int(array_of(data, "n_sectors", "iu", (), path))
+        if not 1 <= n_sectors <= 32:
+            raise DataFileError(f"{path}: n_sectors must be in 1..32, got {n_sectors}")
+        stats = cls(
+            grid,
+            n_sectors=n_sectors,
+            min_range_m=low,
+            max_range_m=high,
+            min_return_z_m=float(array_of(data, "min_return_z_m", "f", (), path)),
+        )
+        targets = (stats._n_obs, stats._r_min, stats._sectors, stats._sum_u)
+        for target, array in zip(targets, arrays, strict=True):
+            target[...] = array
+        stats._project(np.arange(grid.shape[0] * grid.shape[1]))
         return stats
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
 
 
 def popcount(mask: np.ndarray) -> np.ndarray:

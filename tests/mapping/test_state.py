@@ -68,3 +68,82 @@ def test_non_finite_points_are_dropped_and_a_pose_outside_the_map_raises():
 def test_full_size_map_memory_is_within_150_mb():
     state = ExplorationState.from_config(MappingConfig())
     assert state.occupancy.memory_bytes() <= 150e6
+
+
+MEDIUM = MappingConfig(
+    map=MapConfig(low_m=(-16.0, -16.0, -1.0), high_m=(16.0, 16.0, 8.0)),
+    statistics=StatisticsConfig(low_m=(-14.0, -14.0, 0.2), high_m=(14.0, 14.0, 6.2)),
+)
+WALK = ((0.0, 0.0, 0.0), (3.0, 1.0, 0.7), (-2.0, 4.0, 2.0), (-5.0, -3.0, 4.0), (1.0, -6.0, 5.5))
+
+
+def walk_scans():
+    from nbv_gym.mapping.bench import synthetic_lidar
+
+    lidar, rng = synthetic_lidar(n_azimuth=128), np.random.default_rng(3)
+    return [lidar.scan(Pose(x, y, 0.0, yaw), rng) for x, y, yaw in WALK]
+
+
+def snapshot(state: ExplorationState) -> dict[str, np.ndarray]:
+    nav, stats = state.navigation, state.statistics
+    arrays = {
+        "logodds": state.occupancy.logodds,
+        **{name: getattr(stats, name).copy() for name in ("n_obs", "r_min", "sector_mask", "sum_u")},
+        **{f"column_{name}": stats.column(name).copy() for name in COLUMNS},
+        **{name: getattr(nav, name).copy() for name in ("known", "occupied", "distance")},
+        "goal_mask": nav.goal_mask().copy(),
+        "goal_cost": nav.goal_cost().copy(),
+        "frontier_goals": nav.frontier_goal_mask().copy(),
+    }
+    return arrays
+
+
+COLUMNS = {"n_obs": np.sum, "r_min": np.min, "n_omega": np.max, "sigma_theta": np.max}
+
+
+def test_incremental_updates_equal_a_full_recomputation():
+    """Navigation re-projects only the columns a scan changed and the statistics re-project only
+    the columns it touched; both equal a projection of the whole map, bit for bit."""
+    state = ExplorationState.from_config(MEDIUM)
+    for scan in walk_scans():
+        update = state.apply(scan)
+        assert update.columns.shape == state.navigation.grid.shape[:2] and update.columns.any()
+        nav = state.navigation
+        known, occupied = state.occupancy.project(nav.grid, nav.known_band_m, nav.occupied_band_m)
+        np.testing.assert_array_equal(nav.known, known)
+        np.testing.assert_array_equal(nav.occupied, occupied)
+        fresh = ExplorationState.from_config(MEDIUM).navigation
+        fresh.update(known, occupied, scan.origin[:2])
+        for read_out in ("goal_path_length", "goal_mask", "goal_cost", "frontier_goal_mask"):
+            np.testing.assert_array_equal(getattr(nav, read_out)(), getattr(fresh, read_out)())
+        stats = state.statistics
+        for name, reduce in COLUMNS.items():
+            np.testing.assert_array_equal(stats.column(name), reduce(getattr(stats, name), axis=2))
+
+
+def test_clear_gives_back_an_empty_state_that_replays_identically():
+    scans = walk_scans()
+    state = ExplorationState.from_config(MEDIUM)
+    empty = snapshot(state)
+    for scan in scans:
+        state.apply(scan)
+    first = snapshot(state)
+    state.clear()
+    for name, array in snapshot(state).items():
+        np.testing.assert_array_equal(array, empty[name], err_msg=name)
+    for scan in scans:
+        state.apply(scan)
+    for name, array in snapshot(state).items():
+        np.testing.assert_array_equal(array, first[name], err_msg=name)
+
+
+def test_goal_read_outs_are_computed_once_per_plan_and_read_only():
+    state = ExplorationState.from_config(SMALL)
+    state.apply(scan_from([[3.05, 0.05, 0.45]]))
+    nav = state.navigation
+    assert nav.goal_mask() is nav.goal_mask() and nav.goal_cost() is nav.goal_cost()
+    with pytest.raises(ValueError, match="read-only"):
+        nav.goal_mask()[0] = True
+    before = nav.goal_mask()
+    nav.plan(np.array([1.0, 1.0]))
+    assert nav.goal_mask() is not before

@@ -53,12 +53,12 @@ def test_one_observation_has_zero_variance_and_two_orthogonal_ones_one_minus_hal
     np.testing.assert_allclose(stats.sum_u[C], [1.0, 1.0, 0.0])
 
 
-def test_r_min_keeps_the_smallest_range_and_is_nan_where_never_observed():
+def test_r_min_keeps_the_smallest_range_and_is_inf_where_never_observed():
     stats = new_stats()
     for distance in (4.0, 3.0, 4.0):
         stats.update(CENTRE + [distance, 0, 0], [CENTRE])
     assert stats.r_min[C] == pytest.approx(3.0)
-    assert np.isnan(stats.r_min[0, 0, 0])
+    assert stats.r_min[0, 0, 0] == np.inf
     assert stats.n_obs[0, 0, 0] == 0 and stats.sigma_theta[0, 0, 0] == 0.0
 
 

@@ -146,6 +146,7 @@ class OccupancyMap:
         self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
         self._dirty = np.array([self._tiles_xy, (0, 0)], np.int64)  # x, y tile box written since
         # the last clear(): low (row 0) and high (row 1, exclusive); empty when low ≥ high
+        self._sigmoid_cache = _new_sigmoid_cache()
 
     @classmethod
     def from_config(cls, config: MapConfig, max_range_m: float) -> OccupancyMap:
@@ -313,9 +314,11 @@ class OccupancyMap:
             raise ConfigError(f"grid cells of {grid.res} m are not a whole number of voxels")
         offset = self._voxel_offset(GridSpec(grid.origin, self.grid.res, grid.shape))
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
-        return _gather_blocks(
-            self._store, self._dims, offset, cells, int(round(factor)), as_probability
-        )
+        f = int(round(factor))
+        out = np.empty((len(cells), f, f, f), np.float32)
+        _gather_blocks(self._store, self._store.view(np.uint32), self._dims, offset, cells,
+                       as_probability, self._sigmoid_cache, out)  # fmt: skip
+        return out
 
     def probability(self, grid: GridSpec) -> np.ndarray:
         """float32 occupancy probability of ``grid.shape``; 0.5 where unknown or outside the map.
@@ -540,15 +543,32 @@ def _check_params(params: dict[str, float], path: str | Path) -> None:
         raise DataFileError(f"{path}: max_range_m must be finite and > 0, got {params['max_range_m']}")
 
 
+#: Entries of the cache of probabilities of recent log-odds (direct-mapped, keyed by the bits).
+_CACHE_BITS = 12
+
+
+def _new_sigmoid_cache() -> tuple[np.ndarray, np.ndarray]:
+    """An empty probability cache: (2^bits,) uint32 keys (NaN's bits: empty) and float32 values."""
+    size = 1 << _CACHE_BITS
+    return np.full(size, np.float32(np.nan).view(np.uint32), np.uint32), np.zeros(size, np.float32)
+
+
 @njit(cache=True)
-def _gather_blocks(store, dims, offset, cells, f, as_probability):
-    """(k, f, f, f) log-odds — or probabilities if ``as_probability`` — of ``cells`` (coarse
-    indices) from the tiled ``store``, read layer by layer (the store is z-major)."""
+def _gather_blocks(store, bits, dims, offset, cells, as_probability, cache, out):
+    """Fill ``out`` (k, f, f, f) with the log-odds — or probabilities if ``as_probability`` — of
+    ``cells`` (coarse indices) from the tiled ``store`` (``bits``: the same memory as uint32),
+    read layer by layer (the store is z-major). A map holds few distinct log-odds (sums of the
+    hit and miss steps, clamped), so probabilities come from a small cache keyed by the log-odds'
+    bits, ``cache`` = (keys, values), and are computed by :func:`_sigmoid_one` only on a miss:
+    the same bits either way."""
     tile = TILE  # a compile-time constant: the divisions below become shifts
     tiles_x, tiles_y, nx, ny, nz = dims
     layer = tiles_x * tiles_y * tile * tile
+    f = out.shape[1]
+    keys, values = cache
+    shift = np.uint64(32 - _CACHE_BITS)
     unknown = np.float32(0.5) if as_probability else np.float32(np.nan)
-    out = np.full((cells.shape[0], f, f, f), unknown, np.float32)
+    out[:] = unknown
     for c in range(cells.shape[0]):
         x0 = offset[0] + cells[c, 0] * f
         y0 = offset[1] + cells[c, 1] * f
@@ -559,12 +579,24 @@ def _gather_blocks(store, dims, offset, cells, f, as_probability):
                 row = (z0 + d) * layer + (x // tile) * tiles_y * tile * tile + (x % tile) * tile
                 for b in range(max(0, -y0), min(f, ny - y0)):
                     y = y0 + b
-                    value = store[row + (y // tile) * tile * tile + y % tile]
+                    index = row + (y // tile) * tile * tile + y % tile
+                    value = store[index]
                     if not as_probability:
                         out[c, a, b, d] = value
                     elif not np.isnan(value):
-                        out[c, a, b, d] = _sigmoid_one(value)
-    return out
+                        key = bits[index]
+                        slot = _slot(key, shift)
+                        if keys[slot] != key:
+                            keys[slot] = key
+                            values[slot] = _sigmoid_one(value)
+                        out[c, a, b, d] = values[slot]
+
+
+@njit(cache=True, inline="always")
+def _slot(key, shift):
+    """Cache slot of a uint32 key: the top bits of its Fibonacci hash."""
+    product = (np.uint64(key) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
+    return np.int64(product >> shift)
 
 
 @njit(cache=True)

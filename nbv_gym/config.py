@@ -24,6 +24,9 @@ else:  # pragma: no cover
 
 T = TypeVar("T")
 
+#: The largest config or spec file read (bytes); they hold a few kB.
+MAX_CONFIG_BYTES = 1 << 20
+
 
 def from_dict(cls: type[T], data: Mapping[str, Any], path: str = "") -> T:
     """Build the dataclass ``cls`` from ``data``, recursing into nested dataclass fields.
@@ -58,10 +61,21 @@ def parse_toml(text: str, source: str) -> dict[str, Any]:
 
 def read_toml(path: str | Path, kind: str) -> dict[str, Any]:
     """The table of the TOML file ``path``, a ``kind`` ("Sweep config", …) named in errors."""
+    return parse_toml(read_text(path, kind), str(path))
+
+
+def read_text(path: str | Path, kind: str) -> str:
+    """The UTF-8 text of the config file ``path`` (at most :data:`MAX_CONFIG_BYTES`);
+    :class:`ConfigError` naming the ``kind`` of file if it is missing, too large or not text."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"{kind} {str(path)!r} does not exist.")
-    return parse_toml(path.read_text(), str(path))
+    if path.stat().st_size > MAX_CONFIG_BYTES:
+        raise ConfigError(f"{kind} {str(path)!r} is larger than {MAX_CONFIG_BYTES} bytes.")
+    try:
+        return path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise ConfigError(f"{kind} {str(path)!r} is not UTF-8 text (TOML is): {error}") from None
 
 
 def to_dict(config: Any) -> dict[str, Any]:

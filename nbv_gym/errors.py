@@ -33,6 +33,11 @@ class UnknownNameError(NbvGymError, KeyError):
         return self.message
 
 
+class DataFileError(NbvGymError, ValueError):
+    """A data file (map, statistics, array) is unreadable, truncated, too large or not what it
+    claims to be; the message names the file."""
+
+
 class PoseError(NbvGymError, ValueError):
     """A pose lies outside the world or the map."""
 

@@ -12,7 +12,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from nbv_gym.arrays import FloatArray, IntArray
-from nbv_gym.errors import ConfigError
+from nbv_gym.errors import ConfigError, DataFileError
+
+#: The arrays :meth:`GridSpec.to_arrays` writes.
+GRID_ARRAYS = ("origin", "res", "shape")
 
 
 @dataclass(frozen=True)
@@ -72,13 +75,25 @@ class GridSpec:
         }
 
     @classmethod
-    def from_arrays(cls, data) -> GridSpec:
-        """The grid stored by :meth:`to_arrays` in ``data`` (a mapping such as an open ``.npz``)."""
-        return cls(
-            tuple(float(v) for v in data["origin"]),
-            float(data["res"]),
-            tuple(int(v) for v in data["shape"]),
-        )
+    def from_arrays(cls, data, source: str = "grid") -> GridSpec:
+        """The grid stored by :meth:`to_arrays` in ``data`` (a mapping such as an open ``.npz``);
+        :class:`DataFileError` naming ``source`` unless ``origin`` is 3 finite numbers, ``res``
+        a positive finite number and ``shape`` 3 positive integers."""
+        origin, res, shape = (np.asarray(data.get(k, np.array(None))) for k in GRID_ARRAYS)
+        if not (
+            origin.shape == (3,) and origin.dtype.kind in "iuf" and np.isfinite(origin).all()
+            and res.shape == () and res.dtype.kind in "iuf" and np.isfinite(res) and res > 0
+            and shape.shape == (3,) and shape.dtype.kind in "iu" and (shape > 0).all()
+        ):  # fmt: skip
+            found = ", ".join(
+                f"{k} {a.dtype} {a.shape}" if k in data else f"no {k}"
+                for k, a in zip(GRID_ARRAYS, (origin, res, shape), strict=True)
+            )
+            raise DataFileError(
+                f"{source}: expected a grid's origin (3 finite metres), res (metres > 0) and "
+                f"shape (3 positive cell counts), found {found}"
+            )
+        return cls(tuple(origin.tolist()), float(res), tuple(int(v) for v in shape))
 
     def xy_centres(self) -> FloatArray:
         """(nx · ny, 2) float centres in metres of the x, y cells, row-major (cell (i, j) at

@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
+from nbv_gym.arrayfiles import read_npy
 from nbv_gym.arrays import FloatArray
+from nbv_gym.errors import DataFileError
 from nbv_gym.metrics import MetricInputError
 
 SUFFIXES = (".ply", ".pcd", ".npy", ".xyz", ".txt", ".pts", ".csv")
@@ -144,7 +146,10 @@ def _checked(path: Path, points: FloatArray) -> FloatArray:
 
 
 def _read_npy(path: Path) -> FloatArray:
-    array = np.load(path, allow_pickle=False)
+    try:
+        array = read_npy(path)
+    except DataFileError as error:
+        raise PointCloudError(path, str(error).removeprefix(f"{path}: ")) from None
     if array.ndim != 2 or array.shape[1] < 3 or not np.issubdtype(array.dtype, np.number):
         raise PointCloudError(
             path, f"expected an (n, 3) numeric array, got {array.dtype} {array.shape}"
@@ -211,10 +216,10 @@ def _read_ply(path: Path) -> FloatArray:
         return _ply_ascii(path, data[offset:], elements[:index], count, names)
     order = "<" if fmt == "binary_little_endian" else ">"
     skip = 0
-    for name, n, p in elements[:index]:
+    for name, n, p in elements[: index + 1]:
         if any(t.startswith("list") for _, t in p):
             raise PointCloudError(
-                path, f"element {name!r} with list properties precedes the vertices"
+                path, f"element {name!r} with list properties precedes or holds the vertices"
             )
         skip += n * np.dtype([(pn, order + _PLY_TYPES[t]) for pn, t in p]).itemsize
     dtype = np.dtype([(name, order + _PLY_TYPES[t]) for name, t in props])

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.config import check, from_dict, parse_toml, to_dict
+from nbv_gym.config import check, from_dict, parse_toml, read_text, to_dict
 from nbv_gym.errors import ConfigError, UnknownNameError
 from nbv_gym.worlds.trees import TreeConfig
 
@@ -130,7 +130,7 @@ def load_spec(name_or_path: str | Path) -> WorldSpec:
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():
             raise ConfigError(f"World spec file {str(path)!r} does not exist.")
-        return parse_spec(path.read_text(), str(path))
+        return parse_spec(read_text(path, "World spec file"), str(path))
     files = {p.name.removesuffix(".toml"): p for p in _spec_files()}
     if str(name_or_path) not in files:
         raise UnknownNameError("world", str(name_or_path), files)

@@ -102,6 +102,13 @@ class ExploreEnv(gymnasium.Env):
         self.render_mode = render_mode
         self.sim = Simulator(self.config.simulator)
         self.optional = OptionalLayers(self.sim, self.config.observation_layers, self.config.nbv)
+        mapping = self.config.simulator.mapping
+        self.observer = observation.Observer(
+            self.sim.goal_grid,
+            mapping.sensor_range_m,
+            mapping.statistics.n_sectors,
+            self.config.simulator.episode.max_steps,
+        )
         self.action_space = GoalSpace(self.sim.n_goals)
         self.action_space.bind(self._current_mask)
         self.observation_space = observation.observation_space(
@@ -148,10 +155,11 @@ class ExploreEnv(gymnasium.Env):
         return stable if stable.any() else mask
 
     def _observation(self) -> dict[str, np.ndarray]:
-        layers = observation.base_layers(self.sim)
-        layers.update(self.optional.compute(self._last))
-        layers["state"] = observation.robot_state(self.sim)
-        return layers
+        sim = self.sim
+        optional = self.optional.compute(self._last)
+        return self.observer.observe(
+            sim.state.navigation, sim.state.statistics, sim.pose, sim.steps, optional
+        )
 
     def _info(self) -> dict[str, Any]:
         outcome, sim = self._last, self.sim

@@ -160,28 +160,35 @@ class CuboidMetrics:
 
     def summary(self) -> QualitySummary:
         """The :class:`QualitySummary` over the comparison volume and its observed part."""
-        every = self._means(self.volume)
-        seen = self._means(self.volume & self.observed)
-        occ = self.u_occ & self.volume
-        return QualitySummary(
-            *every,
-            n_occ=int(occ.sum()),
-            n_empty=int((self.volume & ~self.u_occ).sum()),
-            n_observed=int((self.volume & self.observed).sum()),
-            q_observed=seen[0],
-            q_paper_observed=seen[1],
-            cov_observed=seen[2],
-            l1_observed=seen[3],
-        )
+        return _summary(self.u_occ, self.volume, self.observed, self.cov, self.l1, self.quality,
+                        self.config)  # fmt: skip
 
-    def _means(self, where: BoolArray) -> tuple[float, float, tuple[float, ...], float]:
-        """(Q, Q_paper, cov per setting, L1) over the cuboids ``where``; NaN where a set is empty."""
-        occ, empty = where & self.u_occ, where & ~self.u_occ
-        q = float(self.quality[where].mean()) if where.any() else float("nan")
-        paper = q_paper(self.cov[self.config.q_setting][occ], self.l1[empty], self.config)
-        cov = tuple(float(c[occ].mean()) if occ.any() else float("nan") for c in self.cov)
-        l1 = float(self.l1[empty].mean()) if empty.any() else float("nan")
-        return q, paper, cov, l1
+
+def _summary(u_occ, volume, observed, cov, l1, quality, config: CuboidConfig) -> QualitySummary:
+    """The :class:`QualitySummary` of per-cuboid arrays of one shape (``cov`` with a leading
+    setting axis; its values off U_occ are never read)."""
+    every = _means(volume, u_occ, cov, l1, quality, config)
+    seen = _means(volume & observed, u_occ, cov, l1, quality, config)
+    return QualitySummary(
+        *every,
+        n_occ=int((u_occ & volume).sum()),
+        n_empty=int((volume & ~u_occ).sum()),
+        n_observed=int((volume & observed).sum()),
+        q_observed=seen[0],
+        q_paper_observed=seen[1],
+        cov_observed=seen[2],
+        l1_observed=seen[3],
+    )
+
+
+def _means(where, u_occ, cov, l1, quality, config) -> tuple[float, float, tuple[float, ...], float]:
+    """(Q, Q_paper, cov per setting, L1) over the cuboids ``where``; NaN where a set is empty."""
+    occ, empty = where & u_occ, where & ~u_occ
+    q = float(quality[where].mean()) if where.any() else float("nan")
+    paper = q_paper(cov[config.q_setting][occ], l1[empty], config)
+    covs = tuple(float(c[occ].mean()) if occ.any() else float("nan") for c in cov)
+    l1_mean = float(l1[empty].mean()) if empty.any() else float("nan")
+    return q, paper, covs, l1_mean
 
 
 def cuboid_shape(grid_shape: tuple[int, ...], cuboid_voxels: int) -> tuple[int, int, int]:
@@ -357,20 +364,32 @@ class QualityTracker:
             self._observed, self._l1, self._cov,
         )  # fmt: skip
 
+    def reset(self) -> None:
+        """Every cuboid unobserved again (a new episode on the same ground truth): clears the
+        per-cuboid arrays in place; the ground-truth lists built in ``__init__`` are kept."""
+        self._observed[:] = False
+        self._l1[:] = self.config.unobserved_l1
+        self._cov[:] = 0.0
+
     def summary(self) -> QualitySummary:
-        """The current :class:`QualitySummary` (no recomputation)."""
-        return self.metrics().summary()
+        """The current :class:`QualitySummary` (no recomputation, no copies of the arrays)."""
+        cov = self._cov.reshape(-1, *self.shape)
+        l1 = self._l1.reshape(self.shape)
+        return _summary(self.u_occ, self.volume, self._observed.reshape(self.shape), cov, l1,
+                        self._quality(cov, l1), self.config)  # fmt: skip
 
     def metrics(self) -> CuboidMetrics:
         """The current per-cuboid arrays as :class:`CuboidMetrics` (copies)."""
         cov = self._cov.reshape(-1, *self.shape).copy()
         cov[:, ~self.u_occ] = np.nan
         l1 = self._l1.reshape(self.shape).copy()
-        quality = np.where(self.u_occ, cov[self.config.q_setting], empty_quality(l1, self.config))
         observed = self._observed.reshape(self.shape).copy()
-        return CuboidMetrics(
-            self.u_occ.copy(), observed, cov, l1, quality, self.config, self.volume.copy()
-        )
+        return CuboidMetrics(self.u_occ.copy(), observed, cov, l1, self._quality(cov, l1),
+                             self.config, self.volume.copy())  # fmt: skip
+
+    def _quality(self, cov: FloatArray, l1: FloatArray) -> FloatArray:
+        """(cx, cy, cz) float64 per-cuboid term of Q."""
+        return np.where(self.u_occ, cov[self.config.q_setting], empty_quality(l1, self.config))
 
     def _flat_indices(self, touched: IntArray | None) -> IntArray:
         size = int(np.prod(self.shape))

@@ -150,6 +150,10 @@ def test_incremental_updates_equal_a_full_recomputation_exactly():
     full = QualityTracker(gt).update(prob)
     np.testing.assert_equal(astuple(incremental), astuple(full))  # every field, bit for bit (NaN == NaN)
     assert 0 < full.q < 1
+    np.testing.assert_equal(astuple(tracker.summary()), astuple(tracker.metrics().summary()))
+    tracker.reset()  # a new episode on the same ground truth: as a new tracker, bit for bit
+    np.testing.assert_equal(astuple(tracker.summary()), astuple(QualityTracker(gt).summary()))
+    np.testing.assert_equal(astuple(tracker.update(prob)), astuple(full))
 
 
 def test_mismatched_grids_raise_clear_errors():

@@ -216,12 +216,14 @@ def _read_ply(path: Path) -> FloatArray:
         return _ply_ascii(path, data[offset:], elements[:index], count, names)
     order = "<" if fmt == "binary_little_endian" else ">"
     skip = 0
-    for name, n, p in elements[: index + 1]:
+    for name, n, p in elements[:index]:
         if any(t.startswith("list") for _, t in p):
             raise PointCloudError(
-                path, f"element {name!r} with list properties precedes or holds the vertices"
+                path, f"element {name!r} with list properties precedes the vertices"
             )
         skip += n * np.dtype([(pn, order + _PLY_TYPES[t]) for pn, t in p]).itemsize
+    if any(t.startswith("list") for _, t in props):
+        raise PointCloudError(path, "binary vertices with list properties are not supported")
     dtype = np.dtype([(name, order + _PLY_TYPES[t]) for name, t in props])
     need = offset + skip + count * dtype.itemsize
     if len(data) < need:

@@ -129,6 +129,13 @@ def _read(contract, folder, suffix: str, content: bytes) -> None:
         assert result.dtype == np.float64 and np.isfinite(result).all()
 
 
+@given(st.sampled_from(SUFFIXES), st.data())
+def test_unmutated_files_read_back_their_points(folder, suffix, data):
+    points = _points(data.draw)
+    path = write_points(folder / f"exact{suffix}", points)
+    np.testing.assert_allclose(read_points(path), points, rtol=1e-6)
+
+
 @given(written_files())
 def test_mutated_files_of_every_format(contract, folder, case):
     suffix, content = case

@@ -39,6 +39,26 @@ worlds_app = typer.Typer(
 app.add_typer(worlds_app, name="worlds")
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from importlib.metadata import version
+
+        typer.echo(f"nbv-gym {version('nbv-gym')}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _options(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version", callback=_print_version, is_eager=True, help="Print the version and exit."
+        ),
+    ] = False,
+) -> None:
+    pass
+
+
 def _stderr(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
@@ -157,18 +177,15 @@ def run(
             f"Q_paper {row['q_paper']:.4f}  path {row['path_length_m']:6.1f} m"
         )
         if animation:
-            frames.append(env.render()[::2, ::2])
+            frames.append(env.render())  # full resolution: halving it aliased
 
     result = run_episode(env, agent, seed, report)
     meta = {"world": world, "policy": policy, "noise": noise, "seed": seed}
     write_run_folder(out, env, result, meta)
     if frames:
-        from PIL import Image
+        from nbv_gym.env.render import save_animation
 
-        images = [Image.fromarray(frame) for frame in frames]
-        images[0].save(
-            out / "exploration.gif", save_all=True, append_images=images[1:], duration=600, loop=0
-        )
+        save_animation(frames, out / "exploration.gif", env.metadata["render_fps"])
     final = result.final
     typer.echo(
         f"{policy} on {world} (noise {noise}, seed {seed}): {final['step']} steps, "
@@ -238,6 +255,16 @@ def _register_study() -> None:
 
 
 _register_study()
+
+
+def _register_exports() -> None:
+    from nbv_gym.exports import export, record, view
+
+    for command in (export, view, record):
+        app.command()(command)
+
+
+_register_exports()
 
 
 def main() -> None:

@@ -106,18 +106,46 @@ def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: di
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_plain))
     env.sim.state.occupancy.save(out / "map.npz")
     env.sim.state.statistics.save(out / "statistics.npz")
+    _write_exports(out, env)
+
+
+def _write_exports(out: Path, env: ExploreEnv) -> None:
+    """The final map as PLY (occupied voxel centres, probability as a scalar) and the scan poses
+    (``trajectory.csv``), for other tools and ``nbv-gym view``."""
+    from nbv_gym.mapping.export import export_map
+    from nbv_gym.view import TRAJECTORY_NAME, write_trajectory
+
+    export_map(env.sim.state.occupancy, out / "map.ply")
+    write_trajectory(out / TRAJECTORY_NAME, env.sim.trajectory)
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and the libraries a result depends on."""
-    packages = ("nbv-gym", "numpy", "scipy", "numba", "embreex", "trimesh", "gymnasium", "pot")
+    """Versions of Python and the libraries a result depends on, and the project's git commit
+    (``git describe --always --dirty``) when nbv-gym runs from a git checkout."""
+    packages = ("nbv-gym", "numpy", "scipy", "numba", "embreex", "trimesh", "gymnasium", "pot",
+                "torch", "stable-baselines3")  # fmt: skip
     found = {"python": platform.python_version()}
     for name in packages:
         try:
             found[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             found[name] = "not installed"
+    found["git_commit"] = git_commit()
     return found
+
+
+def git_commit() -> str:
+    """The checkout's commit (``-dirty`` when modified), or ``"unknown"`` outside a checkout."""
+    import subprocess
+
+    try:
+        done = subprocess.run(
+            ["git", "describe", "--always", "--dirty", "--abbrev=40"],
+            cwd=Path(__file__).parent, capture_output=True, text=True, timeout=10,
+        )  # fmt: skip
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return done.stdout.strip() if done.returncode == 0 and done.stdout.strip() else "unknown"
 
 
 def _plain(value: Any) -> Any:

@@ -58,6 +58,9 @@ def view(
         str | None, typer.Option(help="World whose ground truth to draw (default: the run's).")
     ] = None,
     min_p: Annotated[float, typer.Option("--min-p", help="Voxels drawn: p ≥ this.")] = 0.5,
+    min_z: Annotated[
+        float, typer.Option("--min-z", help="Voxels drawn: centre z ≥ this, metres (0.2: no ground).")
+    ] = 0.2,
     max_points: Annotated[int, typer.Option(help="Thin larger clouds to this many.")] = 150_000,
     out: Annotated[
         Path | None, typer.Option(help="HTML file (default: RUN_DIR/view.html).")
@@ -78,7 +81,7 @@ def view(
 
     if out is None:
         out = (source if source.is_dir() else source.parent) / VIEW_NAME
-    scene = load_scene(source, colour_by, world, min_p, max_points)
+    scene = load_scene(source, colour_by, world, min_p, max_points, min_z_m=min_z)
     typer.echo(write_view(scene, out))
 
 
@@ -98,8 +101,9 @@ def record(
     terminations, truncations; action masks in the infos) for offline RL or imitation
     (needs minari: pip install "nbv-gym[data]").
 
-    Load it with minari.load_dataset(ID) after pointing MINARI_DATASETS_PATH at --out's
-    parent folder... or simply with nbv_gym.record.load_recording(OUT).
+    --out is the datasets root: load with MINARI_DATASETS_PATH=OUT and
+    minari.load_dataset(ID), or nbv_gym.record.load_recording(OUT, ID); each episode's reset
+    seed is in its metadata, so its actions replay to the same rewards.
 
     Examples:
 

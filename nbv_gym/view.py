@@ -3,9 +3,11 @@
 ``nbv-gym view RUN_DIR`` (or ``MAP.npz``) draws with plotly (plotly.js inlined, so the file opens
 offline in any browser):
 
-- the map's occupied voxels (probability ≥ ``min_probability``) as small cubes-like markers,
-  coloured by their occupancy probability or by a viewpoint statistic of their 1 m cell of G
-  (``n_obs``, ``r_min``, ``n_omega``, ``sigma_theta``; from the run's ``statistics.npz``);
+- the map's occupied voxels (probability ≥ ``min_probability``, centre at least ``min_z_m``
+  high: the default 0.2 m leaves out the ground, whose lidar rings would hide everything else,
+  as the statistics do) coloured by their occupancy probability or by a viewpoint statistic of
+  their 1 m cell of G (``n_obs``, ``r_min``, ``n_omega``, ``sigma_theta``; from the run's
+  ``statistics.npz``);
 - the world's ground truth, faint grey (the run's world from ``summary.json``, or ``world``);
 - the robot's path and scan poses (the run's ``trajectory.csv``), numbered by step.
 
@@ -76,6 +78,7 @@ def load_scene(
     min_probability: float = 0.5,
     max_points: int = 150_000,
     seed: int = 0,
+    min_z_m: float = 0.2,
 ) -> Scene:
     """The scene of a run folder (``map.npz``, and when present ``statistics.npz``,
     ``summary.json``, ``trajectory.csv``) or of a map file ``.npz``."""
@@ -89,6 +92,8 @@ def load_scene(
     if not map_path.is_file():
         raise ViewError(f"{map_path}: no such map; give a run folder (nbv-gym run) or a map .npz")
     voxels, probability = map_voxels(OccupancyMap.load(map_path), min_probability)
+    above = voxels[:, 2] >= min_z_m
+    voxels, probability = voxels[above], probability[above]
     values, label = probability, "occupancy probability"
     if colour_by != "probability":
         values, label = _statistic(folder, colour_by, voxels), colour_by
@@ -117,7 +122,7 @@ def scene_figure(scene: Scene):
 
     figure = go.Figure()
     if scene.truth is not None:
-        figure.add_trace(_points(go, scene.truth, "ground truth", color="rgba(120,120,120,0.18)"))
+        figure.add_trace(_points(go, scene.truth, "ground truth", color="rgba(90,90,90,0.22)"))
     marker = dict(size=2.2, color=scene.values, colorscale="Viridis", showscale=True,
                   colorbar=dict(title=dict(text=scene.label, side="right"), thickness=14))  # fmt: skip
     figure.add_trace(_points(go, scene.voxels, "map (occupied voxels)", marker=marker))

@@ -15,9 +15,11 @@ def render_rgb(sim: Simulator, size_px: int = 520) -> np.ndarray:
     """(size_px, 2 size_px, 3) uint8 picture: left the navigation map (unknown grey, free white,
     occupied black, frontiers orange) with the path, start and robot, and a legend; right the
     observation count n_obs per 1 m column."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(size_px / 50, size_px / 100), dpi=100)
+    canvas = FigureCanvasAgg(figure)
     left, right = figure.subplots(1, 2)
     extent = _extent(sim)
     left.imshow(_map_image(sim).transpose(1, 0, 2), origin="lower", extent=extent)
@@ -41,8 +43,8 @@ def render_rgb(sim: Simulator, size_px: int = 520) -> np.ndarray:
         axes.tick_params(labelsize=9)
     _legend(left)
     figure.tight_layout()
-    figure.canvas.draw()
-    return np.asarray(figure.canvas.buffer_rgba())[..., :3].copy()
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
 
 
 def save_animation(frames: list[np.ndarray], path, fps: float) -> None:

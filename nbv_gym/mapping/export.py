@@ -34,11 +34,13 @@ def map_voxels(occupancy, min_probability: float = 0.5) -> tuple[FloatArray, Flo
     known voxel), in (x, y, z) C order of the map's grid."""
     if not 0.0 <= min_probability <= 1.0:
         raise ExportError(f"min probability must be in [0, 1], got {min_probability}")
-    grid = occupancy.grid
-    probability = occupancy.probability(grid)
-    keep = occupancy.known_mask(grid) & (probability >= min_probability)
-    index = np.argwhere(keep)
-    return grid.centres(index), probability[keep]
+    from scipy.special import expit
+
+    logodds = occupancy.logodds  # one dense copy; NaN = unknown
+    index = np.argwhere(~np.isnan(logodds))
+    probability = expit(logodds[tuple(index.T)])
+    keep = probability >= min_probability
+    return occupancy.grid.centres(index[keep]), probability[keep]
 
 
 def export_map(occupancy, path: str | Path, min_probability: float = 0.5) -> int:

@@ -26,6 +26,10 @@ def train(
         int | None, typer.Option(help="Parallel environments (overrides n_envs).")
     ] = None,
     seed: Annotated[int | None, typer.Option(help="Seed (overrides seed).")] = None,
+    eval_every: Annotated[
+        int | None,
+        typer.Option(help="Evaluate every N environment steps (overrides eval_every_steps; 0: never)."),
+    ] = None,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
     verbose: Annotated[bool, typer.Option(help="Print SB3's training tables.")] = False,
 ) -> None:
@@ -42,6 +46,7 @@ def train(
     \b
       nbv-gym train --config experiments/ppo.toml
       nbv-gym train --config experiments/ppo.toml --timesteps 5000 --out runs/ppo-short
+      nbv-gym train --config experiments/ppo.toml --eval-every 2000
       nbv-gym train --config experiments/ppo.toml --resume runs/ppo/checkpoints/model_8000_steps.zip
       tensorboard --logdir runs/ppo/logs
       nbv-gym run --policy sb3:runs/ppo/best_model.zip --world pp3-trees
@@ -49,7 +54,8 @@ def train(
     from nbv_gym.rl.config import load_train_config
     from nbv_gym.rl.train import train as train_agent
 
-    overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed}
+    overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
+                 "eval_every_steps": eval_every}  # fmt: skip
     settings = load_train_config(config, overrides)
     out = out or Path("runs") / config.stem
     typer.echo(

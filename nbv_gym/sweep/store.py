@@ -32,6 +32,7 @@ import numpy as np
 from nbv_gym.config import to_dict
 from nbv_gym.errors import NbvGymError
 from nbv_gym.sweep.config import RunSpec, SweepConfig, dumps_toml
+from nbv_gym.sweep.schema import end_reason_code, with_column_docs
 
 IDENTITY_COLUMNS = ("key", "world", "asset", "noise", "policy", "repeat")
 #: Columns of ``runs.csv``.
@@ -209,6 +210,8 @@ class ResultStore:
             if path.name not in done:
                 run_rows.append(_failed_row(json.loads(path.read_text())))
         runs = pd.DataFrame(run_rows, columns=list(RUN_COLUMNS))
+        codes = runs["end_reason"].map(end_reason_code)
+        runs.insert(runs.columns.get_loc("end_reason") + 1, "end_code", codes)
         runs = runs.sort_values(["world", "noise", "policy", "repeat"], kind="stable")
         steps = pd.DataFrame(step_rows, columns=list(STEP_TABLE_COLUMNS))
         paths = {"runs": self.root / "runs.csv", "steps": self.root / "steps.csv"}
@@ -235,7 +238,7 @@ class ResultStore:
                 identity = {c: pa.array([getattr(run, c)] * n) for c in IDENTITY_COLUMNS}
                 table = pa.table({**identity, **columns})
                 if writer is None:
-                    writer = pq.ParquetWriter(f, table.schema, compression="zstd")
+                    writer = pq.ParquetWriter(f, with_column_docs(table.schema), compression="zstd")
                 writer.write_table(table.cast(writer.schema))
             if writer is None:
                 empty = {c: pa.array([], pa.string()) for c in IDENTITY_COLUMNS}

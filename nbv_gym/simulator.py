@@ -4,6 +4,7 @@ navigation → ΔQ (SPEC §2–5). The environment (:mod:`nbv_gym.env`) and the 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -11,7 +12,13 @@ from nbv_gym.config import check
 from nbv_gym.errors import NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.lidar import Lidar, LidarConfig, Scan
-from nbv_gym.mapping import ExplorationState, MappingConfig
+from nbv_gym.mapping import (
+    ExplorationState,
+    MappingConfig,
+    NavigationLayer,
+    OccupancyMap,
+    ViewpointStatistics,
+)
 from nbv_gym.metrics.cuboids import CuboidConfig, QualitySummary, QualityTracker
 from nbv_gym.pose import NOISE_LEVELS, Pose
 from nbv_gym.worlds import World, load_world
@@ -94,25 +101,54 @@ class Simulator:
         self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
         self.goal_grid = self.config.mapping.statistics.grid()
         self.voxel_grid = _refine(self.goal_grid, self.config.quality.voxel_size_m)
-        self._ground_truth = self.world.ground_truth.occupancy(self.voxel_grid)
+        self.quality = self._quality_tracker(self.world)
         self.goal_centres = self.goal_grid.xy_centres()
-        self.state: ExplorationState | None = None
+        self._state = ExplorationState.from_config(self.config.mapping)  # reused by every episode
+        self.state: ExplorationState | None = None  # the episode's state; None before a reset
+        self.rng = np.random.default_rng()
+        self.pose = self._start_pose()
+        self.trajectory: list[Pose] = []
+        self.steps, self.path_length_m = 0, 0.0
+        self.summary = self.quality.summary()
 
     @property
     def n_goals(self) -> int:
         """Number of goals (actions): the x, y cells of G."""
         return len(self.goal_centres)
 
+    @property
+    def navigation(self) -> NavigationLayer:
+        """The navigation layer of the current episode."""
+        return self._state.navigation
+
+    @property
+    def statistics(self) -> ViewpointStatistics:
+        """The viewpoint statistics G of the current episode."""
+        return self._state.statistics
+
+    @property
+    def occupancy(self) -> OccupancyMap:
+        """The occupancy map of the current episode."""
+        return self._state.occupancy
+
+    def save(self, folder: str | Path) -> None:
+        """Write the map (``map.npz``) and the statistics (``statistics.npz``) to ``folder``."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        self.occupancy.save(folder / "map.npz")
+        self.statistics.save(folder / "statistics.npz")
+
     def reset(self, seed: int | None = None) -> StepOutcome:
-        """Start an episode at the start pose and take the first scan; randomness from ``seed``."""
-        episode = self.config.episode
+        """Start an episode at the start pose and take the first scan; randomness from ``seed``.
+        The map, statistics and quality arrays of the previous episode are cleared and reused."""
         self.rng = np.random.default_rng(seed)
-        self.state = ExplorationState.from_config(self.config.mapping)
-        self.quality = QualityTracker(self._ground_truth, self.config.quality)
-        self.pose = Pose(*episode.start_xy_m, 0.0, episode.start_yaw_rad)
+        self._state.clear()
+        self.state = self._state
+        self.quality.reset()
+        self.pose = self._start_pose()
         self.trajectory = [self.pose]
         self.steps, self.path_length_m = 0, 0.0
-        self.summary = self.quality.summary()  # a new tracker: every cuboid unobserved
+        self.summary = self.quality.summary()  # every cuboid unobserved
         return self._observe(path_length_m=0.0)
 
     def step(self, goal: int) -> StepOutcome:
@@ -198,6 +234,15 @@ class Simulator:
         if not np.isfinite(navigation.goal_path_length()[goal]):
             return "it is not known free space reachable from the robot"
         return "it is not a valid goal"
+
+
+    def _start_pose(self) -> Pose:
+        episode = self.config.episode
+        return Pose(*episode.start_xy_m, 0.0, episode.start_yaw_rad)
+
+    def _quality_tracker(self, world: World) -> QualityTracker:
+        """The quality tracker of ``world``: its ground-truth lists, built once per world."""
+        return QualityTracker(world.ground_truth.occupancy(self.voxel_grid), self.config.quality)
 
 
 def _refine(grid: GridSpec, res: float) -> GridSpec:

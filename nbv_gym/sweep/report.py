@@ -8,7 +8,6 @@ Built from the consolidated tables alone (``runs.csv``, ``steps.csv``, ``cuboids
 from __future__ import annotations
 
 import itertools
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.sweep.config import PAPER_POLICIES
+from nbv_gym.sweep.effort import bands, curves_at, effort_section
 from nbv_gym.sweep.html import save_figure, write_html
 from nbv_gym.sweep.stats import (
     Interval,
@@ -25,7 +25,6 @@ from nbv_gym.sweep.stats import (
     holm,
     probability_of_improvement,
     q_auc,
-    q_curve,
     share_significant,
 )
 from nbv_gym.sweep.store import ResultStore, SweepError
@@ -71,7 +70,9 @@ def build_report(results: str | Path, out: str | Path | None = None, seed: int =
         sections += [
             _fig2_section(ok, data, out),
             _final_section(ok, data, rng, out),
+            effort_section(ok, data.steps, data.policies, out),
             _indicator_section(ok, data, out),
+            _verdict_section(ok, data, out),
         ]
     sections.append(_failures_section(data.runs))
     path = out / "report.md"
@@ -178,66 +179,56 @@ def _fig2_section(ok, data: Results, out: Path) -> str:
     lines = [
         "## Map quality during exploration (paper Fig. 2)",
         "",
-        "Q against the discovered fraction of the ground plane, per policy: the line is the mean "
-        "of the runs (drawn where at least half of them reach that fraction), the band spans "
-        "their min and max. One panel per asset type (harder to the "
-        "right); one figure per noise level (the paper shows noise 0).",
+        "Quality against the discovered fraction of the ground plane, per policy: the line is the "
+        "mean of the runs (drawn where at least half of them reach that fraction), the band spans "
+        "their min and max. One panel per asset type (harder to the right); per noise level "
+        "(the paper shows noise 0) first Q_paper (eq. 3, what the paper's Fig. 2 draws), then Q "
+        "(fixed bounds, the reward). Both over the comparison volume (README, Protocol).",
     ]
     for noise in sorted(ok["noise"].unique()):
-        name = f"fig2_q_vs_discovered_noise{noise}.png"
         runs = ok[ok["noise"] == noise]
-        plot_fig2(runs, data.steps, data.policies, data.target, out / name, f"noise {noise}")
-        lines += ["", f"### Noise level {noise} ({len(runs)} runs)", "", f"![Fig. 2]({name})"]
+        lines += ["", f"### Noise level {noise} ({len(runs)} runs)"]
+        for column, label in (("q_paper", "Q_paper"), ("q", "Q")):
+            name = f"fig2_{column}_vs_discovered_noise{noise}.png"
+            plot_fig2(runs, data.steps, data.policies, data.target, out / name,
+                      f"noise {noise}", column)  # fmt: skip
+            lines += ["", f"![Fig. 2, {label}]({name})"]
     return "\n".join(lines)
 
 
-def q_bands(runs, steps, grid: np.ndarray) -> dict[tuple[str, str], np.ndarray]:
-    """Per (asset, policy): a (3, k) array of mean, min and max Q over the runs at the discovered
-    fractions ``grid``; min and max where at least one run covers a fraction, the mean where at
-    least half of the runs do (so that the mean does not jump where runs end), NaN elsewhere."""
-    by_key = {key: group.sort_values("step") for key, group in steps.groupby("key", sort=False)}
-    bands = {}
-    for (asset, policy), group in runs.groupby(["asset", "policy"], sort=False):
-        curves = [
-            q_curve(by_key[k]["discovered"].to_numpy(), by_key[k]["q"].to_numpy(), grid)
-            for k in group["key"]
-            if k in by_key
-        ]
-        if not curves:
-            continue
-        stack = np.vstack(curves)
-        covered = np.isfinite(stack).sum(axis=0)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # columns no run covers
-            mean = np.nanmean(stack, 0)
-            low, high = np.nanmin(stack, 0), np.nanmax(stack, 0)
-        mean[covered * 2 < len(curves)] = np.nan
-        bands[(asset, policy)] = np.vstack([mean, low, high])
-    return bands
+def q_bands(runs, steps, grid: np.ndarray, column: str = "q") -> dict[tuple[str, str], np.ndarray]:
+    """Per (asset, policy): a (3, k) array of mean, min and max of ``column`` over the runs at
+    the discovered fractions ``grid``; min and max where at least one run covers a fraction, the
+    mean where at least half of the runs do (so that the mean does not jump where runs end), NaN
+    elsewhere."""
+    return bands(runs, curves_at(steps, "discovered", column, grid), len(grid))
 
 
-def plot_fig2(runs, steps, policies, target: float, path: Path, title: str) -> None:
-    """Fig. 2 of the paper for ``runs`` to ``path``."""
+def plot_fig2(
+    runs, steps, policies, target: float, path: Path, title: str, column: str = "q"
+) -> None:
+    """Fig. 2 of the paper (``column`` against the discovered fraction) for ``runs`` to ``path``."""
+    label = {"q": "Q", "q_paper": "Q_paper"}.get(column, column)
     assets = asset_order(runs["asset"])
     grid = np.linspace(0, max(target, 0.05), 141)
-    bands = q_bands(runs, steps, grid)
+    drawn = q_bands(runs, steps, grid, column)
     fig = _figure(4 * len(assets), 3.6)
     axes = fig.subplots(1, len(assets), sharey=True, squeeze=False)
     colours = policy_colours(policies)
     for ax, asset in zip(axes[0], assets, strict=True):
         for policy in policies:
-            if (asset, policy) not in bands:
+            if (asset, policy) not in drawn:
                 continue
-            mean, low, high = bands[(asset, policy)]
+            mean, low, high = drawn[(asset, policy)]
             style = "-" if policy.startswith("nbv-") else "--"
             ax.plot(grid, mean, style, color=colours[policy], label=policy, lw=1.5)
             ax.fill_between(grid, low, high, color=colours[policy], alpha=0.12, lw=0)
         ax.set_title(asset or "(unknown asset)")
         ax.set_xlabel("discovered fraction")
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("Q")
+    axes[0][0].set_ylabel(label)
     axes[0][-1].legend(fontsize=7, loc="upper left")
-    fig.suptitle(f"Q against discovered fraction ({title})")
+    fig.suptitle(f"{label} against discovered fraction ({title})")
     fig.tight_layout()
     save_figure(fig, path)
 
@@ -404,6 +395,7 @@ def indicator_tests_table(cuboids):
     from nbv_gym.metrics.indicators import indicator_tests
 
     rows = []
+    cuboids = cuboids[cuboids["n_obs"] >= 1]  # the paper's tests: observed from at least once
     for key, run in cuboids.groupby("key", sort=False):
         occ = run["u_occ"].to_numpy(bool)
         metrics = {
@@ -457,6 +449,24 @@ def _indicator_section(ok, data: Results, out: Path) -> str:
     lines += _fig1_lines(ok, data, out)
     lines += _table2_lines(ok, data, out)
     return "\n".join(lines)
+
+
+def _verdict_section(ok, data: Results, out: Path) -> str:
+    from nbv_gym.sweep.verdict import verdict_section, verdict_table
+
+    levels = sorted(ok["noise"].unique())
+    noise = FIG1_NOISE if FIG1_NOISE in levels else levels[0]
+    columns = ["asset", "u_occ", "cov_q", "l1", *STATISTICS]
+    cuboids = _read_cuboids(data.cuboids_path, [("noise", "=", int(noise))], columns)
+    shares_path = out / "table2.csv"
+    shares = _read_table2(shares_path) if shares_path.exists() else None
+    return verdict_section(verdict_table(ok, data.steps, cuboids, shares), out)
+
+
+def _read_table2(path: Path):
+    import pandas as pd
+
+    return pd.read_csv(path, index_col=0)
 
 
 def _fig1_lines(ok, data: Results, out: Path) -> list[str]:

@@ -82,7 +82,7 @@ def results(tmp_path):
             }
         )
         steps += [
-            {**identity, "step": s, "discovered": d, "q": v}
+            {**identity, "step": s, "discovered": d, "q": v, "q_paper": v, "path_length_m": 10.0 * s}
             for s, (d, v) in enumerate(zip(discovered, q, strict=True))
         ]
         cuboids.append(_cuboids(identity, follows_h1))
@@ -134,11 +134,16 @@ def test_report_tables_hold_the_hand_computed_values(results):
     assert set(tests["policy"]) == {"random-frontier"} and len(tests) == 2 * 8
 
     text = page.read_text()
-    for name in ("fig2_q_vs_discovered_noise0.png", "fig1_quality_vs_statistics_noise0.png"):
+    figures = ("fig2_q_paper_vs_discovered_noise0.png", "fig2_q_vs_discovered_noise0.png",
+               "fig1_quality_vs_statistics_noise0.png", "q_vs_scans.png", "q_vs_path.png")  # fmt: skip
+    for name in figures:
         assert (report / name).stat().st_size > 10_000 and f"]({name})" in text
     assert "| n_obs | 0.50 | 0.50 |" in text
     assert "pp1-cuboids/noise0/nbv-nobs/rep0 | 3 | RuntimeError: boom" in text
     assert "4 finished runs, 1 failed" in text
+    verdict = pd.read_csv(report / "verdict.csv")
+    assert list(verdict.columns) == ["claim", "paper", "ours", "verdict"]
+    assert "Fig. 1: cov rises with n_obs" in set(verdict["claim"])
 
 
 def test_report_of_a_folder_without_results_says_what_to_run(tmp_path):

@@ -142,9 +142,14 @@ def load_ground_truth(world: str | None, path: Path | None, grid) -> np.ndarray:
 
 
 def _load_npy(path: Path) -> np.ndarray:
+    from nbv_gym.arrayfiles import read_npy
+    from nbv_gym.errors import DataFileError
+
     try:
-        return np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as error:
+        return read_npy(path)
+    except DataFileError as error:
+        raise MetricInputError(str(error)) from None
+    except OSError as error:
         raise MetricInputError(f"{path}: unreadable .npy file ({error})") from None
 
 

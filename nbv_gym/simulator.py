@@ -19,7 +19,7 @@ from nbv_gym.mapping import (
     OccupancyMap,
     ViewpointStatistics,
 )
-from nbv_gym.metrics.cuboids import CuboidConfig, QualitySummary, QualityTracker
+from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary, QualityTracker
 from nbv_gym.pose import NOISE_LEVELS, Pose
 from nbv_gym.worlds import World, load_world
 
@@ -62,7 +62,7 @@ class SimulatorConfig:
     noise: int = 1
     lidar: LidarConfig = field(default_factory=LidarConfig)
     mapping: MappingConfig = field(default_factory=MappingConfig)
-    quality: CuboidConfig = field(default_factory=CuboidConfig)
+    quality: QualityConfig = field(default_factory=QualityConfig)
     episode: EpisodeConfig = field(default_factory=EpisodeConfig)
 
     def __post_init__(self) -> None:
@@ -100,7 +100,7 @@ class Simulator:
         self.world = world or load_world(self.config.world)
         self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
         self.goal_grid = self.config.mapping.statistics.grid()
-        self.voxel_grid = _refine(self.goal_grid, self.config.quality.voxel_size_m)
+        self.voxel_grid = _refine(self.goal_grid, self.config.mapping.map.resolution_m)
         self.quality = self._quality_tracker(self.world)
         self.goal_centres = self.goal_grid.xy_centres()
         self._state = ExplorationState.from_config(self.config.mapping)  # reused by every episode
@@ -241,8 +241,16 @@ class Simulator:
         return Pose(*episode.start_xy_m, 0.0, episode.start_yaw_rad)
 
     def _quality_tracker(self, world: World) -> QualityTracker:
-        """The quality tracker of ``world``: its ground-truth lists, built once per world."""
-        return QualityTracker(world.ground_truth.occupancy(self.voxel_grid), self.config.quality)
+        """The quality tracker of ``world``: its ground-truth lists, built once per world, on
+        G's cells at the map's voxels, with the map's lower clamp."""
+        mapping = self.config.mapping
+        config = CuboidConfig.for_map(
+            self.config.quality,
+            mapping.map.resolution_m,
+            mapping.statistics.cell_m,
+            mapping.map.p_clamp_min,
+        )
+        return QualityTracker(world.ground_truth.occupancy(self.voxel_grid), config)
 
 
 def _refine(grid: GridSpec, res: float) -> GridSpec:

@@ -73,3 +73,39 @@ def test_an_invalid_goal_is_refused_with_the_reason(sim):
     sim.reset(2)
     with pytest.raises(InvalidActionError, match="robot's own cell"):
         sim.step(30 * 60 + 30)
+
+
+@pytest.mark.parametrize(
+    ("overrides", "key"),
+    [
+        ({"quality": {"clamp_min_p": 0.2}}, "quality.clamp_min_p"),  # the map's clamp decides
+        ({"quality": {"cuboid_voxels": 5}}, "quality.cuboid_voxels"),  # G's cells decide
+        ({"quality": {"voxel_size_m": 0.05}}, "quality.voxel_size_m"),  # the map's voxels decide
+        ({"mapping": {"statistics": {"cell_m": 0.25}}}, "statistics: G"),  # 2.5 voxels
+        (
+            {
+                "mapping": {
+                    "statistics": {"low_m": [-30.05, -30.0, 0.2], "high_m": [29.95, 30.0, 6.2]}
+                }
+            },
+            "statistics: G",
+        ),  # fmt: skip
+        ({"mapping": {"statistics": {"high_m": [34.0, 30.0, 6.2]}}}, "inside the map box"),
+    ],
+)
+def test_configs_that_cannot_work_are_refused_naming_the_key(overrides, key):
+    from nbv_gym.config import from_dict
+    from nbv_gym.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        from_dict(SimulatorConfig, overrides)
+
+
+def test_quality_is_computed_on_the_maps_voxels_and_clamp():
+    config = SimulatorConfig(world=WORLD)
+    cuboids = Simulator(config).quality.config
+    assert cuboids.voxel_size_m == config.mapping.map.resolution_m
+    assert cuboids.clamp_min_p == config.mapping.map.p_clamp_min
+    assert cuboids.cuboid_voxels * cuboids.voxel_size_m == pytest.approx(
+        config.mapping.statistics.cell_m
+    )

@@ -37,6 +37,15 @@ class MappingConfig:
             f"the box {self.statistics.low_m}–{self.statistics.high_m} must lie inside the map box "
             f"{self.map.low_m}–{self.map.high_m}",
         )
+        voxels = np.asarray(self.statistics.low_m) - np.asarray(self.map.low_m)
+        voxels = np.append(voxels, self.statistics.cell_m) / self.map.resolution_m
+        check(
+            bool(np.all(np.abs(voxels - np.rint(voxels)) < 1e-6)),
+            "statistics",
+            f"G (low_m {self.statistics.low_m}, cell_m {self.statistics.cell_m}) must be aligned "
+            f"to the map's {self.map.resolution_m} m voxels from {self.map.low_m}: its corner "
+            "and cell size whole numbers of voxels",
+        )
 
 
 class ExplorationState:

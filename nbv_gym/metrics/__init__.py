@@ -21,6 +21,7 @@ _EXPORTS = {
     "COV_SETTINGS": "cuboids",
     "CuboidConfig": "cuboids",
     "CuboidMetrics": "cuboids",
+    "QualityConfig": "cuboids",
     "QualitySummary": "cuboids",
     "QualityTracker": "cuboids",
     "benchmark_grid": "cuboids",

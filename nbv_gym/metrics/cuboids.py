@@ -29,6 +29,7 @@ cuboid instead. Summaries carry the same figures over the observed cuboids of th
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -47,37 +48,38 @@ VOLUMES = ("ground_truth_box", "grid")
 
 
 def benchmark_grid() -> GridSpec:
-    """The voxel box the benchmark's metrics cover: G's extent at 0.1 m, shape (600, 600, 60)."""
-    return GridSpec.from_bounds((-30.0, -30.0, 0.2), (30.0, 30.0, 6.2), 0.1)
+    """The voxel box the benchmark's metrics cover: G's box (``StatisticsConfig``) at the map's
+    resolution (``MapConfig``); shape (600, 600, 60) by default."""
+    from nbv_gym.mapping.occupancy import MapConfig
+    from nbv_gym.mapping.statistics import StatisticsConfig
+
+    statistics = StatisticsConfig()
+    return GridSpec.from_bounds(statistics.low_m, statistics.high_m, MapConfig().resolution_m)
 
 
 @dataclass(frozen=True)
-class CuboidConfig:
-    """How cuboid metrics are computed (defaults: SPEC §5).
+class QualityConfig:
+    """How a reconstruction is judged (defaults: SPEC §5): ``unknown_low``/``unknown_high``: the
+    open probability band of an unobserved cuboid; ``cov_settings``: (p, d metres) pairs;
+    ``q_setting``: index of the pair used by Q; ``unobserved_wd``: WD_occ of an unobserved
+    cuboid; ``volume``: the comparison volume, one of :data:`VOLUMES` (``"ground_truth_box"``: the
+    cuboids that intersect the ground truth's bounding box, the default; ``"grid"``: every
+    cuboid).
 
-    ``cuboid_voxels``: voxels per cuboid edge; ``voxel_size_m``: voxel edge in metres (turns the
-    coverage distances into voxel offsets); ``unknown_low``/``unknown_high``: the open probability
-    band of an unobserved cuboid; ``cov_settings``: (p, d metres) pairs; ``q_setting``: index of the
-    pair used by Q; ``clamp_min_p``: the map's lower clamp, the best empty-cuboid p;
-    ``unobserved_wd``: WD_occ of an unobserved cuboid; ``volume``: the comparison volume, one of
-    :data:`VOLUMES` (``"ground_truth_box"``: the cuboids that intersect the ground truth's
-    bounding box, the default; ``"grid"``: every cuboid).
+    The geometry (voxel size, cuboid edge) and the map's lower clamp are not part of it: the
+    simulator takes them from its map and statistics configs (:class:`CuboidConfig` adds them
+    for metrics computed on their own).
     """
 
-    cuboid_voxels: int = 10
-    voxel_size_m: float = 0.1
     unknown_low: float = 0.4
     unknown_high: float = 0.6
     cov_settings: tuple[tuple[float, float], ...] = COV_SETTINGS
     q_setting: int = 3
-    clamp_min_p: float = 0.12
     unobserved_wd: float = 100.0
     volume: str = "ground_truth_box"
 
     def __post_init__(self):
         check(self.volume in VOLUMES, "volume", f"expected one of {VOLUMES}, got {self.volume!r}")
-        check(self.cuboid_voxels >= 1, "cuboid_voxels", f"must be >= 1, got {self.cuboid_voxels}")
-        check(self.voxel_size_m > 0, "voxel_size_m", f"must be > 0, got {self.voxel_size_m}")
         check(
             0 <= self.unknown_low < 0.5 < self.unknown_high <= 1,
             "unknown_low",
@@ -92,11 +94,50 @@ class CuboidConfig:
             "q_setting",
             f"must index cov_settings (0..{len(self.cov_settings) - 1}), got {self.q_setting}",
         )
+
+
+@dataclass(frozen=True)
+class CuboidConfig(QualityConfig):
+    """A :class:`QualityConfig` with the grid it is computed on, for metrics of arrays computed
+    on their own (the simulator derives these three from its map: see
+    :meth:`for_map`).
+
+    ``cuboid_voxels``: voxels per cuboid edge; ``voxel_size_m``: voxel edge in metres (turns the
+    coverage distances into voxel offsets); ``clamp_min_p``: the map's lower clamp, the best
+    empty-cuboid p. Defaults: the benchmark's map (SPEC §3).
+    """
+
+    cuboid_voxels: int = 10
+    voxel_size_m: float = 0.1
+    clamp_min_p: float = 0.12
+
+    def __post_init__(self):
+        super().__post_init__()
+        check(self.cuboid_voxels >= 1, "cuboid_voxels", f"must be >= 1, got {self.cuboid_voxels}")
+        check(self.voxel_size_m > 0, "voxel_size_m", f"must be > 0, got {self.voxel_size_m}")
         check(
             0 <= self.clamp_min_p < 0.5,
             "clamp_min_p",
             f"must be in [0, 0.5), got {self.clamp_min_p}",
         )
+
+    @classmethod
+    def for_map(
+        cls, quality: QualityConfig, voxel_size_m: float, cell_m: float, clamp_min_p: float
+    ) -> CuboidConfig:
+        """``quality`` on cuboids of ``cell_m`` (G's cells) of a map with voxels of
+        ``voxel_size_m`` and lower clamp ``clamp_min_p``; ConfigError unless a cell is a whole
+        number of voxels."""
+        ratio = cell_m / voxel_size_m
+        check(
+            abs(ratio - round(ratio)) < 1e-6 and round(ratio) >= 1,
+            "mapping.statistics.cell_m",
+            f"G's cells ({cell_m} m) must be a whole number of map voxels "
+            f"(mapping.map.resolution_m = {voxel_size_m} m)",
+        )
+        fields = {f.name: getattr(quality, f.name) for f in dataclasses.fields(QualityConfig)}
+        return cls(**fields, cuboid_voxels=round(ratio), voxel_size_m=voxel_size_m,
+                   clamp_min_p=clamp_min_p)  # fmt: skip
 
     @property
     def cuboid_size(self) -> int:

@@ -26,11 +26,16 @@ class UnknownNameError(NbvGymError, KeyError):
         valid = sorted(valid)
         close = difflib.get_close_matches(name, valid, n=3)
         hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-        self.message = f"Unknown {kind} {name!r}.{hint} Valid {kind}s: {', '.join(valid)}."
+        self.message = f"Unknown {kind} {name!r}.{hint} Valid {_plural(kind)}: {', '.join(valid)}."
         super().__init__(self.message)
 
     def __str__(self) -> str:  # KeyError would quote the message
         return self.message
+
+
+def _plural(noun: str) -> str:
+    """``policy`` → ``policies``, ``world`` → ``worlds``."""
+    return noun[:-1] + "ies" if noun.endswith("y") and noun[-2:-1] not in "aeiou" else noun + "s"
 
 
 class DataFileError(NbvGymError, ValueError):

@@ -62,7 +62,11 @@ def load_policy(name: str, **kwargs: Any) -> Policy:
     target = POLICIES.get(name, name)
     if ":" not in target:
         raise UnknownNameError("policy", name, POLICIES)
-    policy = _import_class(target, name)(**kwargs)
+    cls = _import_class(target, name)
+    try:
+        policy = cls(**kwargs)
+    except Exception as error:
+        raise PolicyError(f"Policy {name!r}: its constructor raised {_one_line(error)}") from None
     missing = [m for m in ("reset", "act") if not callable(getattr(policy, m, None))]
     if missing:
         raise PolicyError(
@@ -73,8 +77,21 @@ def load_policy(name: str, **kwargs: Any) -> Policy:
 
 
 def required_layers(policy: object) -> tuple[str, ...]:
-    """The optional observation layers ``policy`` declares (none if it declares nothing)."""
-    return tuple(getattr(policy, "observation_layers", ()))
+    """The optional observation layers ``policy`` declares (none if it declares nothing);
+    :class:`PolicyError` unless they are a list or tuple of names."""
+    layers = getattr(policy, "observation_layers", ())
+    if isinstance(layers, str) or not all(isinstance(name, str) for name in layers):
+        raise PolicyError(
+            f"Policy {policy_name(policy)} declares observation_layers = {layers!r}; declare "
+            f"a tuple of layer names, e.g. ({layers!r},) or ()."
+        )
+    return tuple(layers)
+
+
+def policy_name(policy: object) -> str:
+    """``module:Class`` of ``policy``, for messages."""
+    kind = type(policy)
+    return f"{kind.__module__}:{kind.__qualname__}"
 
 
 def _import_class(target: str, name: str) -> type:
@@ -85,9 +102,20 @@ def _import_class(target: str, name: str) -> type:
         raise PolicyError(
             f"Policy {name!r}: cannot import module {module_name!r}: {error}"
         ) from None
+    except Exception as error:  # a SyntaxError, or an exception raised at import
+        raise PolicyError(
+            f"Policy {name!r}: importing module {module_name!r} failed: {_one_line(error)}"
+        ) from None
     try:
         return getattr(module, class_name)
     except AttributeError:
         raise PolicyError(
             f"Policy {name!r}: module {module_name!r} has no attribute {class_name!r}."
         ) from None
+
+
+def _one_line(error: BaseException) -> str:
+    """``Type: message`` of ``error`` on one line, with the place of a syntax error."""
+    if isinstance(error, SyntaxError):
+        return f"SyntaxError: {error.msg} ({error.filename}, line {error.lineno})"
+    return f"{type(error).__name__}: {' '.join(str(error).split())}"

@@ -13,13 +13,24 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import os
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
+import time
+import traceback
+from dataclasses import dataclass
+from multiprocessing.connection import wait as connection_wait
 from typing import Any, Protocol
 
 from nbv_gym.errors import MissingExtraError
 from nbv_gym.sweep.store import SweepError
-from nbv_gym.sweep.worker import WORKER_ENVIRONMENT, RunTask, execute_run, failure
+from nbv_gym.sweep.worker import (
+    STARTED,
+    WORKER_ENVIRONMENT,
+    RunTask,
+    WorkerDiedError,
+    execute_run,
+    failure,
+    serve,
+    timed_out,
+)
 
 
 class Backend(Protocol):
@@ -45,26 +56,37 @@ class Backend(Protocol):
         """Stop the workers (tasks still in flight are abandoned)."""
 
 
-def make_backend(workers: int | None, scheduler: str | None) -> Backend:
+def make_backend(workers: int | None, scheduler: str | None, run_timeout_s: float) -> Backend:
     """A process pool of ``workers`` processes (default: all cores), or a Dask client of the
-    cluster at ``scheduler`` (``"local"``: a new LocalCluster of ``workers`` processes)."""
-    workers = workers or os.cpu_count() or 1
+    cluster at ``scheduler`` (``"local"``: a new LocalCluster of ``workers`` processes). A run
+    taking longer than ``run_timeout_s`` is stopped and reported as failed."""
+    workers = (os.cpu_count() or 1) if workers is None else workers
     if workers < 1:
         raise SweepError(f"--workers must be ≥ 1, got {workers}")
     if scheduler:
-        return DaskBackend(scheduler, workers)
-    return PoolBackend(workers)
+        return DaskBackend(scheduler, workers, run_timeout_s)
+    return PoolBackend(workers, run_timeout_s)
 
 
 class PoolBackend:
-    """A local pool of worker processes; a dead worker fails the tasks in flight, then the pool
-    is restarted."""
+    """A local pool of worker processes, each running one task at a time.
 
-    def __init__(self, workers: int):
+    The pool knows which worker runs which task: a worker that dies (a crash, ``os._exit``,
+    ``kill -9``, out of memory) fails only its own task, and a task running longer than
+    ``run_timeout_s`` (from when its worker, its imports done, started it) has its worker
+    killed and is reported as timed out; either way a new worker takes the freed place.
+    Workers exit by themselves when this process dies (see :func:`~nbv_gym.sweep.worker.serve`)."""
+
+    def __init__(self, workers: int, run_timeout_s: float):
         self.workers = workers
+        self.run_timeout_s = run_timeout_s
         self.description = f"local process pool of {workers} worker(s)"
-        self._futures: dict[Future, RunTask] = {}
-        self._executor: ProcessPoolExecutor | None = None
+        methods = multiprocessing.get_all_start_methods()
+        self._context = multiprocessing.get_context(
+            "forkserver" if "forkserver" in methods else "spawn"
+        )
+        self._slots: list[_Slot] = []
+        self._alive = None  # (read end, write end) of the pipe that tells workers we live
         self._environment = _worker_environment()
         self._environment.__enter__()
 
@@ -74,48 +96,118 @@ class PoolBackend:
 
     @property
     def in_flight(self) -> int:
-        return len(self._futures)
+        return sum(slot.task is not None for slot in self._slots)
 
     def submit(self, task: RunTask) -> None:
-        if self._executor is None:
-            self._executor = self._start()
-        try:
-            future = self._executor.submit(execute_run, task)
-        except BrokenProcessPool:
-            self._executor.shutdown(wait=False, cancel_futures=True)
-            self._executor = self._start()
-            future = self._executor.submit(execute_run, task)
-        self._futures[future] = task
+        slot = next((s for s in self._slots if s.task is None), None) or self._start_worker()
+        slot.connection.send(task)
+        slot.task, slot.started = task, None
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
-        done, _ = wait(list(self._futures), return_when=FIRST_COMPLETED)
-        future = next(iter(done))
-        task = self._futures.pop(future)
-        try:
-            return task, future.result()
-        except BrokenProcessPool as error:
-            message = "the worker process died (killed, out of memory or a crash in native code)"
-            return task, failure(BrokenProcessPool(f"{message}: {error}"))
-        except Exception as error:  # e.g. the outcome could not be pickled
-            return task, failure(error)
+        while True:
+            busy = [slot for slot in self._slots if slot.task is not None]
+            ends = {s: s.started + self.run_timeout_s for s in busy if s.started is not None}
+            now = time.monotonic()
+            late = [slot for slot, end in ends.items() if end <= now]
+            if late:
+                self._stop(late[0])
+                return late[0].task, timed_out(self.run_timeout_s)
+            waiting = [slot.connection for slot in busy] + [slot.process.sentinel for slot in busy]
+            timeout = max(0.0, min(ends.values()) - now) if ends else None
+            ready = set(connection_wait(waiting, timeout))
+            for slot in busy:
+                if slot.connection in ready or slot.process.sentinel in ready:
+                    task, outcome = slot.task, self._receive(slot)
+                    if outcome is STARTED:
+                        slot.started = time.monotonic()
+                        break
+                    slot.task = None
+                    return task, outcome
 
     def close(self) -> None:
-        if self._executor is not None:
-            self._executor.shutdown(wait=True, cancel_futures=True)
-            self._executor = None
+        for slot in list(self._slots):
+            if slot.task is not None:
+                self._stop(slot)
+            else:
+                slot.connection.close()  # an idle worker exits at end-of-file
+        for slot in self._slots:
+            slot.process.join(5)
+            if slot.process.is_alive():
+                slot.process.kill()
+        self._slots.clear()
+        if self._alive is not None:
+            for end in self._alive:
+                end.close()
+            self._alive = None
         self._environment.__exit__(None, None, None)
 
-    def _start(self) -> ProcessPoolExecutor:
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-        return ProcessPoolExecutor(self.workers, mp_context=context)
+    def _start_worker(self) -> _Slot:
+        if self._alive is None:
+            self._alive = self._context.Pipe(duplex=False)
+        ours, theirs = self._context.Pipe()
+        process = self._context.Process(
+            target=serve, args=(theirs, self._alive[0]), name="nbv-gym-worker", daemon=True
+        )
+        process.start()
+        theirs.close()
+        slot = _Slot(process, ours)
+        self._slots.append(slot)
+        return slot
+
+    def _receive(self, slot: _Slot) -> dict[str, Any]:
+        """What ``slot``'s worker sent (:data:`~nbv_gym.sweep.worker.STARTED` or the outcome),
+        or a failure if the worker died."""
+        try:
+            message = slot.connection.recv()
+            return STARTED if message == STARTED else message
+        except (EOFError, OSError):
+            pass
+        except Exception as error:  # the outcome could not be unpickled
+            return failure(error, traceback.format_exc())
+        slot.process.join(5)
+        code = slot.process.exitcode
+        self._stop(slot)
+        how = f"was killed by signal {-code}" if code and code < 0 else f"exited with code {code}"
+        return failure(
+            WorkerDiedError(
+                f"the worker process running this run {how} (killed, out of memory, os._exit() "
+                "or a crash in native code); the other runs went on"
+            )
+        )
+
+    def _stop(self, slot: _Slot) -> None:
+        """Kill ``slot``'s worker and forget it."""
+        if slot.process.is_alive():
+            slot.process.kill()
+            slot.process.join(5)
+        slot.connection.close()
+        self._slots.remove(slot)
+
+
+@dataclass(eq=False)
+class _Slot:
+    """One worker process of a :class:`PoolBackend`, its end of the task connection and the
+    task it runs (None when idle) since ``started`` (``time.monotonic()``, None until the
+    worker said it started the task)."""
+
+    process: Any
+    connection: Any
+    task: RunTask | None = None
+    started: float | None = None
 
 
 class DaskBackend:
     """Tasks on a Dask cluster: an existing scheduler address, or ``"local"`` for a new
-    LocalCluster of one-thread worker processes. Workers need nbv-gym installed."""
+    LocalCluster of one-thread worker processes. Workers need nbv-gym installed.
 
-    def __init__(self, scheduler: str, workers: int):
+    One task per worker thread is in flight, so a task runs from its submission. A run slower
+    than ``run_timeout_s`` stops itself after its current step; one stuck inside a step (a
+    policy that never returns) is reported as timed out here, and the worker running it is
+    restarted (through its nanny; a worker without one keeps the stuck thread). With no worker
+    connected for :data:`NO_WORKER_WAIT_S`, :meth:`next_done` gives up with a
+    :class:`SweepError`."""
+
+    def __init__(self, scheduler: str, workers: int, run_timeout_s: float):
         try:
             from distributed import Client, LocalCluster
         except ImportError:
@@ -133,20 +225,23 @@ class DaskBackend:
             self.description = f"Dask LocalCluster of {workers} worker(s)"
         else:
             try:
-                self.client = Client(scheduler, timeout="30s", security=client_security(scheduler))
-            except OSError as error:
+                self.client = Client(scheduler, timeout="30s")
+            except (OSError, ValueError) as error:  # unreachable, or not an address
                 raise SweepError(
                     f"Cannot reach the Dask scheduler at {scheduler!r}: {error}. Start one with "
                     "`dask scheduler` (and `dask worker ADDRESS` on each machine), or use "
-                    f"--scheduler local.{_TLS_HINT if scheduler.startswith('tls://') else ''}"
+                    "--scheduler local."
                 ) from None
             self.description = f"Dask cluster at {scheduler}"
+        self.scheduler = scheduler
+        self.run_timeout_s = run_timeout_s
         self._futures: dict[Any, RunTask] = {}
+        self._started: dict[Any, float] = {}
+        self._no_workers_since: float | None = None
 
     @property
     def capacity(self) -> int:
-        threads = sum(self.client.nthreads().values())
-        return max(1, 2 * threads)
+        return max(1, sum(self.client.nthreads().values()))
 
     @property
     def in_flight(self) -> int:
@@ -155,19 +250,59 @@ class DaskBackend:
     def submit(self, task: RunTask) -> None:
         future = self.client.submit(execute_run, task, pure=False, retries=0)
         self._futures[future] = task
+        self._started[future] = time.monotonic()
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
         from distributed import wait as dask_wait
 
-        done = dask_wait(list(self._futures), return_when="FIRST_COMPLETED").done
-        future = next(iter(done))
-        task = self._futures.pop(future)
-        try:
-            outcome = future.result()
-        except Exception as error:  # KilledWorker (the worker died) and the like
-            outcome = failure(error)
-        future.release()
-        return task, outcome
+        while True:
+            late = self._late()
+            if late is not None:
+                return self._futures.pop(late), timed_out(self.run_timeout_s)
+            try:
+                waited = dask_wait(list(self._futures), _POLL_S, return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                self._check_workers()
+                continue
+            future = next(iter(waited.done))
+            task = self._futures.pop(future)
+            del self._started[future]
+            try:
+                outcome = future.result()
+            except Exception as error:  # KilledWorker (the worker died) and the like
+                outcome = failure(error)
+            future.release()
+            return task, outcome
+
+    def _late(self):
+        """A future past its deadline, cancelled and its worker restarted; None if none is."""
+        now = time.monotonic()
+        late = [f for f, start in self._started.items() if now - start >= self.run_timeout_s]
+        if not late or not self.client.nthreads():
+            return None
+        future = late[0]
+        del self._started[future]
+        workers = [w for w, keys in self.client.processing().items() if future.key in keys]
+        future.cancel()
+        if workers:
+            with contextlib.suppress(Exception):  # a worker without a nanny cannot restart
+                self.client.restart_workers(workers, timeout=60)
+        return future
+
+    def _check_workers(self) -> None:
+        """Raise :class:`SweepError` once no worker has been connected for too long."""
+        if self.client.nthreads():
+            self._no_workers_since = None
+            return
+        now = time.monotonic()
+        self._no_workers_since = self._no_workers_since or now
+        if now - self._no_workers_since >= NO_WORKER_WAIT_S:
+            raise SweepError(
+                f"No Dask worker has been connected to {self.scheduler} for "
+                f"{NO_WORKER_WAIT_S:.0f} s, with {len(self._futures)} run(s) waiting. Start "
+                "workers (`dask worker ADDRESS --nthreads 1`) and rerun the same command: "
+                "finished runs are kept."
+            )
 
     def close(self) -> None:
         for future in self._futures:
@@ -177,42 +312,9 @@ class DaskBackend:
             self._cluster.close()
 
 
-#: Dask's TLS settings a client of a ``tls://`` scheduler reads: config key → environment
-#: variable. The key may be left out when the certificate file holds it too.
-TLS_SETTINGS = {
-    "distributed.comm.tls.ca-file": "DASK_DISTRIBUTED__COMM__TLS__CA_FILE",
-    "distributed.comm.tls.client.cert": "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT",
-    "distributed.comm.tls.client.key": "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY",
-}
-_TLS_HINT = (
-    " The scheduler refuses clients whose certificate its CA did not sign: check that the "
-    "CA file and the client certificate are the cluster's."
-)
-
-
-def client_security(scheduler: str):
-    """Dask's ``Security`` for a client of ``scheduler``: for a ``tls://`` address, TLS with the CA
-    file, certificate and key of Dask's config (its YAML files or the environment variables of
-    :data:`TLS_SETTINGS`); None (Dask's defaults) for other addresses.
-
-    Raises :class:`SweepError` naming the setting when the CA file or certificate is not set or
-    its file does not exist."""
-    import dask.config
-    from distributed.security import Security
-
-    if not scheduler.startswith("tls://"):
-        return None
-    for key, variable in TLS_SETTINGS.items():
-        value = dask.config.get(key, None)
-        if value is None and key.endswith(".key"):
-            continue  # the certificate file holds the key
-        if not value or not os.path.isfile(value):
-            problem = "is not set" if not value else f"names {value!r}, which does not exist"
-            raise SweepError(
-                f"--scheduler {scheduler} needs TLS: Dask's setting {key} {problem}. Set it in "
-                f"Dask's config or as ${variable} (see README, Security and trust)."
-            )
-    return Security(require_encryption=True)
+#: How long a Dask sweep waits with no worker connected before it gives up, seconds.
+NO_WORKER_WAIT_S = 120.0
+_POLL_S = 5.0  # how often a Dask sweep checks deadlines and workers, seconds
 
 
 @contextlib.contextmanager

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -19,7 +20,9 @@ def sweep(
     ] = None,
     workers: Annotated[
         int | None,
-        typer.Option(help="Local worker processes, or LocalCluster workers [default: all cores]."),
+        typer.Option(
+            help="Local worker processes, or LocalCluster workers, ≥ 1 [default: all cores]."
+        ),
     ] = None,
     scheduler: Annotated[
         str | None,
@@ -37,8 +40,11 @@ def sweep(
     """Run a sweep of episodes (worlds × noise × policies × repeats), resumably, in parallel.
 
     Each finished run is written atomically to OUT/runs/; rerunning the same command resumes and
-    never redoes a finished run. A run that raises (or whose worker dies) is recorded in
-    OUT/failures/ with its traceback and retried up to the retry limit; the other runs go on.
+    never redoes a finished run. A run that raises, whose worker dies, or that runs longer than
+    the config's run_timeout_s (default 1800 s) is recorded in OUT/failures/ with its traceback
+    and retried up to the retry limit; the other runs go on. An unreadable run file is moved to
+    OUT/corrupt/ (and named) and its run done again. The config must name worlds and policies;
+    the defaults used for the other keys are printed.
     At the end OUT/runs.csv (one row per run), OUT/steps.csv (one row per step) and
     OUT/cuboids.parquet (per-cuboid statistics and quality) are rebuilt, and the report is
     written to OUT/report/report.md. Policies given as module:Class are imported from the
@@ -55,13 +61,20 @@ def sweep(
 
         nbv-gym sweep experiments/quick.toml --scheduler local --workers 2
     """
-    from nbv_gym.sweep.config import load_sweep_config, with_overrides
+    from nbv_gym.config import check
+    from nbv_gym.sweep.config import read_sweep_config, with_overrides
     from nbv_gym.sweep.report import build_report
     from nbv_gym.sweep.runner import run_sweep, summary_rows
 
-    sweep_config = with_overrides(load_sweep_config(config), retries=retries)
+    check(workers is None or workers >= 1, "--workers", f"must be ≥ 1, got {workers}")
+    sweep_config, filled = read_sweep_config(config)
+    sweep_config = with_overrides(sweep_config, retries=retries)
+    if filled:
+        defaults = ", ".join(f"{key} = {value!r}" for key, value in filled.items())
+        typer.echo(f"{config} leaves out some keys; their defaults are used: {defaults}", err=True)
     out = out or Path("results") / sweep_config.name
     python_path = (str(config.resolve().parent), os.getcwd())
+    signal.signal(signal.SIGTERM, _interrupt)  # stop the workers and unlock, as for Ctrl-C
     try:
         summary = run_sweep(sweep_config, out, workers, scheduler, python_path, progress)
     except KeyboardInterrupt:
@@ -71,6 +84,7 @@ def sweep(
             fg="yellow",
         )
         raise SystemExit(130) from None
+    _echo_set_aside(summary.set_aside)
     _echo_summary(summary, summary_rows(out, sweep_config.policies))
     if report:
         typer.echo(f"report: {build_report(out)}")
@@ -105,8 +119,21 @@ def report(
         nbv-gym report results/paper --out paper-report
     """
     from nbv_gym.sweep.report import build_report
+    from nbv_gym.sweep.store import ResultStore
 
+    store = ResultStore(results)
+    store.ensure_tables()
+    _echo_set_aside(store.set_aside)
     typer.echo(f"report: {build_report(results, out)}")
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _echo_set_aside(lines: list[str]) -> None:
+    for line in lines:
+        typer.secho(f"warning: {line}", err=True, fg="yellow")
 
 
 def _echo_summary(summary, rows) -> None:
@@ -123,7 +150,13 @@ def _echo_summary(summary, rows) -> None:
     lines = [header]
     for r in rows:
         lines.append(
-            f"{r['policy'][:23]:<24}{r['ok']:>5}{r['failed']:>8}{r['q']:>10.4f}"
-            f"{r['discovered']:>9.1%}{r['steps']:>7.1f}{r['wall_time_s']:>7.1f}"
+            f"{r['policy'][:23]:<24}{r['ok']:>5}{r['failed']:>8}{_number(r['q'], 10, '.4f')}"
+            f"{_number(r['discovered'], 9, '.1%')}{_number(r['steps'], 7, '.1f')}"
+            f"{_number(r['wall_time_s'], 7, '.1f')}"
         )
     typer.echo("\n".join(lines), file=sys.stdout)
+
+
+def _number(value: float, width: int, spec: str) -> str:
+    """``value`` formatted, or a dash when it is undefined (a policy with no finished run)."""
+    return f"{value:>{width}{spec}}" if value == value else f"{'—':>{width}}"

@@ -14,9 +14,10 @@ example ``[env.simulator.lidar]`` or ``[env.nbv]``); ``simulator.world``, ``simu
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,32 +32,30 @@ PAPER_POLICIES = tuple(POLICIES)
 _RESERVED_ENV_KEYS = ("simulator.world", "simulator.noise", "simulator.episode.max_steps")
 
 
-def _benchmark_worlds() -> tuple[str, ...]:
-    from nbv_gym.worlds import benchmark_names
-
-    return tuple(benchmark_names())
-
-
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SweepConfig:
     """A sweep: every combination of ``worlds`` × ``noise`` × ``policies`` × ``repeats``.
 
-    ``worlds``: benchmark world names or world spec files (``.toml``, relative to the config
-    file); ``noise``: localisation-noise levels (0, 1, 2); ``policies``: registered policy names,
-    ``module:Class`` or a trained agent (anything :func:`nbv_gym.policies.load_policy` takes);
-    ``repeats``: runs per combination; ``seed``: base seed of every run seed; ``max_steps``: the
-    episode truncation; ``retries``: how many times a failed run is retried within one
-    invocation; ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for every run.
+    ``worlds`` (required): benchmark world names or world spec files (``.toml``, relative to the
+    config file); ``policies`` (required): registered policy names, ``module:Class`` or a
+    trained agent (anything :func:`nbv_gym.policies.load_policy` takes); ``noise``:
+    localisation-noise levels (0, 1, 2); ``repeats``: runs per combination; ``seed``: base seed
+    of every run seed; ``max_steps``: the episode truncation; ``retries``: how many times a
+    failed run is retried within one invocation; ``run_timeout_s``: wall-clock limit of one run
+    (world building included), after which its worker is stopped and the run recorded as failed
+    ("timed out after N s"); ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for
+    every run.
     """
 
     name: str = "sweep"
-    worlds: tuple[str, ...] = field(default_factory=_benchmark_worlds)
+    worlds: tuple[str, ...]
     noise: tuple[int, ...] = (0, 1, 2)
-    policies: tuple[str, ...] = PAPER_POLICIES
+    policies: tuple[str, ...]
     repeats: int = 3
     seed: int = 0
     max_steps: int = 100
     retries: int = 2
+    run_timeout_s: float = 1800.0
     env: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -79,6 +78,11 @@ class SweepConfig:
         check(self.seed >= 0, "seed", f"must be ≥ 0, got {self.seed}")
         check(self.max_steps >= 1, "max_steps", f"must be ≥ 1, got {self.max_steps}")
         check(self.retries >= 0, "retries", f"must be ≥ 0, got {self.retries}")
+        check(
+            0 < self.run_timeout_s < math.inf,
+            "run_timeout_s",
+            f"must be a number of seconds > 0, got {self.run_timeout_s}",
+        )
         self.env_config(self.worlds[0], self.noise[0])  # checks every key of [env]
 
     def env_config(self, world: str, noise: int):
@@ -114,10 +118,16 @@ class SweepConfig:
         text = f"{self.seed}/{world_name(world)}/noise{noise}/rep{repeat}"
         return int.from_bytes(hashlib.sha256(text.encode()).digest()[:8], "big") >> 1
 
+    def world_digests(self) -> dict[str, str]:
+        """World name → content digest of its spec (:meth:`~nbv_gym.worlds.spec.WorldSpec.digest`)."""
+        from nbv_gym.worlds import load_spec
+
+        return {world_name(world): load_spec(world).digest() for world in self.worlds}
+
     def results_fingerprint(self) -> dict[str, Any]:
         """The parts of the config that change a run's result (for resuming into a folder)."""
         data = to_dict(self)
-        for key in ("name", "worlds", "noise", "policies", "repeats", "retries"):
+        for key in ("name", "worlds", "noise", "policies", "repeats", "retries", "run_timeout_s"):
             data.pop(key)
         return data
 
@@ -146,18 +156,35 @@ class RunSpec:
         return f"{safe}--{hashlib.sha256(self.key.encode()).hexdigest()[:8]}"
 
 
+#: Keys a sweep config file must give (the others have defaults, see :class:`SweepConfig`).
+REQUIRED_KEYS = ("worlds", "policies")
+
+
 def load_sweep_config(path: str | Path) -> SweepConfig:
     """The :class:`SweepConfig` of a TOML file; relative world spec paths are taken relative to
     the file. Raises :class:`ConfigError` naming the file and the offending key."""
+    return read_sweep_config(path)[0]
+
+
+def read_sweep_config(path: str | Path) -> tuple[SweepConfig, dict[str, Any]]:
+    """:func:`load_sweep_config`, and the defaults it filled in for keys the file left out."""
     path = Path(path)
     data = read_toml(path, "Sweep config (see experiments/*.toml)")
+    missing = [key for key in REQUIRED_KEYS if key not in data]
+    if missing and set(data) <= {f.name for f in fields(SweepConfig)}:  # unknown keys first
+        raise ConfigError(
+            f"{path}: missing required key(s) {', '.join(missing)} (e.g. worlds = "
+            '["pp1-trees"], policies = ["closest-frontier"]; see experiments/quick.toml).'
+        )
     data.setdefault("name", path.stem)
     if isinstance(data.get("worlds"), list):
         data["worlds"] = [_resolve_world(w, path.parent) for w in data["worlds"]]
     try:
-        return from_dict(SweepConfig, data)
+        config = from_dict(SweepConfig, data)
     except ConfigError as error:
         raise ConfigError(f"{path}: {error}") from None
+    filled = {k: v for k, v in to_dict(config).items() if k not in data and k != "env"}
+    return config, filled
 
 
 def with_overrides(config: SweepConfig, **values: Any) -> SweepConfig:

@@ -11,14 +11,14 @@ import os
 import sys
 import time
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from nbv_gym.config import to_dict
 from nbv_gym.errors import ConfigError, NbvGymError
 from nbv_gym.sweep.config import RunSpec, SweepConfig
-from nbv_gym.sweep.store import ResultStore
+from nbv_gym.sweep.store import ResultStore, SweepError
 from nbv_gym.sweep.worker import RunTask
 
 
@@ -35,6 +35,7 @@ class SweepSummary:
     wall_time_s: float = 0.0
     backend: str = ""
     tables: dict[str, Path] = field(default_factory=dict)
+    set_aside: list[str] = field(default_factory=list)
 
 
 def run_sweep(
@@ -48,29 +49,37 @@ def run_sweep(
     """Run every run of ``config`` not yet finished in ``out``; see :mod:`nbv_gym.sweep.store`
     for the folder layout. ``workers``: local processes (default: all cores) or LocalCluster
     workers; ``scheduler``: a Dask scheduler address or ``"local"``; ``python_path``: folders
-    where ``module:Class`` policies are found (added to ``sys.path`` here and in workers)."""
+    where ``module:Class`` policies are found (added to ``sys.path`` here and in workers).
+
+    Nothing is written to ``out`` before the policies loaded and the backend started; another
+    sweep writing to ``out`` is refused. Unreadable run files found in ``out`` are moved aside
+    and their runs done again (listed in the summary's ``set_aside``)."""
     from nbv_gym.sweep.backends import make_backend
 
     start = time.perf_counter()
     python_path = tuple(str(Path(p).resolve()) for p in python_path)
     _check_policies(config, python_path)
     store = ResultStore(out)
-    store.prepare(config)
+    backend = make_backend(workers, scheduler, config.run_timeout_s)
     try:
+        store.prepare(config)
         runs = config.runs()
         finished = store.finished_stems()
         todo = [spec for spec in runs if spec.file_stem not in finished]
         summary = SweepSummary(total=len(runs), resumed=len(runs) - len(todo))
         if todo:
-            backend = make_backend(workers, scheduler)
             summary.backend = backend.description
-            try:
-                _drive(backend, store, config, todo, python_path, summary, progress)
-            finally:
-                backend.close()
+            _drive(backend, store, config, todo, python_path, summary, progress)
         summary.tables = store.consolidate()
+    except OSError as error:  # e.g. the folder became read-only mid-sweep
+        raise SweepError(
+            f"Cannot write the results to {out}: {error}. Finished runs are kept; make the "
+            "folder writable and rerun the same command."
+        ) from None
     finally:
+        backend.close()
         store.release()
+    summary.set_aside = store.set_aside
     summary.wall_time_s = time.perf_counter() - start
     return summary
 
@@ -81,7 +90,13 @@ def _drive(backend, store, config, todo, python_path, summary, progress) -> None
 
     envs = {key: to_dict(config.env_config(*key)) for key in _env_keys(todo)}
     pending = deque(
-        RunTask(spec, envs[(spec.world_source, spec.noise)], python_path, _attempt(store, spec))
+        RunTask(
+            spec,
+            envs[(spec.world_source, spec.noise)],
+            python_path,
+            _attempt(store, spec),
+            config.run_timeout_s,
+        )
         for spec in todo
     )
     tries: dict[str, int] = {}
@@ -118,7 +133,7 @@ def _record(store, task, outcome, tries, retries, summary) -> RunTask | None:
     summary.failed_attempts += 1
     tries[spec.key] = tries.get(spec.key, 0) + 1
     if tries[spec.key] <= retries:
-        return RunTask(spec, task.env, task.python_path, task.attempt + 1)
+        return replace(task, attempt=task.attempt + 1)
     summary.failed[spec.key] = str(outcome.get("error"))
     return None
 
@@ -132,18 +147,20 @@ def _env_keys(specs: list[RunSpec]) -> list[tuple[str, int]]:
 
 
 def _check_policies(config: SweepConfig, python_path: tuple[str, ...]) -> None:
-    """Load each policy once here, so that a misspelt class fails the sweep at once, not every
-    run. Raises :class:`ConfigError` naming the ``policies`` entry."""
-    from nbv_gym.policies import load_policy
+    """Load each policy once here and check the observation layers it declares, so that a
+    misspelt class or layer fails the sweep at once, not every run. Raises
+    :class:`ConfigError` naming the ``policies`` entry."""
+    from nbv_gym.env.explore import EnvConfig
+    from nbv_gym.policies import load_policy, required_layers
 
     for folder in python_path:
         if folder not in sys.path:
             sys.path.append(folder)
     for i, name in enumerate(config.policies):
         try:
-            load_policy(name)
+            EnvConfig(observation_layers=required_layers(load_policy(name)))
         except NbvGymError as error:
-            raise ConfigError(f"policies[{i}]: {error}") from None
+            raise ConfigError(f"policies[{i}] ({name}): {error}") from None
 
 
 def default_workers() -> int:

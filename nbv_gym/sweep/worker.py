@@ -3,13 +3,17 @@
 This module imports only the standard library at the top, so that a worker can cap numba's thread
 count before numba is first imported. :func:`execute_run` never raises for a failing run: it
 returns a failure record with the error and its traceback, and the parent decides on retries.
+:func:`serve` is the main loop of a local pool's worker process; it exits when the sweep's main
+process dies, however it dies.
 """
 
 from __future__ import annotations
 
 import os
 import platform
+import signal
 import sys
+import threading
 import time
 import traceback
 from dataclasses import dataclass
@@ -30,6 +34,69 @@ class RunTask:
     env: dict[str, Any]
     python_path: tuple[str, ...] = ()
     attempt: int = 1
+    timeout_s: float | None = None
+
+
+class RunTimeoutError(TimeoutError):
+    """A run took longer than the sweep's ``run_timeout_s``."""
+
+    def __init__(self, timeout_s: float):
+        super().__init__(f"timed out after {timeout_s:g} s (the sweep's run_timeout_s)")
+
+
+class WorkerDiedError(RuntimeError):
+    """The process running a run ended before the run did."""
+
+
+def timed_out(timeout_s: float) -> dict[str, Any]:
+    """The failure record of a run stopped after ``timeout_s`` seconds."""
+    return failure(RunTimeoutError(timeout_s))
+
+
+#: What a pool worker sends when it starts a run (its outcome follows when the run ends).
+STARTED = "started"
+
+
+def serve(connection, alive) -> None:
+    """Main loop of a pool worker: import what runs need, then for each :class:`RunTask`
+    received on ``connection`` send :data:`STARTED`, run it and send its outcome, until the
+    connection closes. ``alive``: the read end of a pipe whose write end only the sweep's main
+    process holds; when it reaches end-of-file (the main process ended, even by ``kill -9``)
+    this process exits at once, mid-run or not."""
+    threading.Thread(target=_exit_at_end_of_file, args=(alive,), daemon=True).start()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
+    _warm_up()
+
+    while True:
+        try:
+            task = connection.recv()
+            connection.send(STARTED)
+        except (EOFError, OSError):
+            return
+        outcome = execute_run(task)
+        try:
+            connection.send(outcome)
+        except (EOFError, OSError):
+            return
+        except Exception as error:  # the outcome cannot be pickled
+            connection.send(failure(error, traceback.format_exc()))
+
+
+def _warm_up() -> None:
+    """Import what a run needs before the first run's clock starts (an import error is left
+    for the run to report)."""
+    try:
+        _prepare_process(())
+        import nbv_gym.episode  # noqa: F401
+    except Exception:
+        pass
+
+
+def _exit_at_end_of_file(alive) -> None:
+    try:
+        alive.poll(None)
+    finally:
+        os._exit(1)
 
 
 def execute_run(task: RunTask) -> dict[str, Any]:
@@ -38,7 +105,7 @@ def execute_run(task: RunTask) -> dict[str, Any]:
     start = time.perf_counter()
     try:
         _prepare_process(task.python_path)
-        outcome = _run(task)
+        outcome = _run(task, _deadline(task.timeout_s, start))
     except Exception as error:
         return failure(error, traceback.format_exc())
     outcome["run"]["total_time_s"] = time.perf_counter() - start
@@ -67,7 +134,19 @@ def _prepare_process(python_path: tuple[str, ...]) -> None:
     numba.set_num_threads(1)
 
 
-def _run(task: RunTask) -> dict[str, Any]:
+def _deadline(timeout_s: float | None, start: float):
+    """A per-step check that raises :class:`RunTimeoutError` once ``timeout_s`` has passed
+    since ``start`` (a run that is slow but not stuck stops on any backend; a stuck one is
+    stopped by the backend)."""
+
+    def check(row, env) -> None:
+        if timeout_s is not None and time.perf_counter() - start > timeout_s:
+            raise RunTimeoutError(timeout_s)
+
+    return check
+
+
+def _run(task: RunTask, on_step) -> dict[str, Any]:
     from nbv_gym.config import from_dict
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode
@@ -77,7 +156,7 @@ def _run(task: RunTask) -> dict[str, Any]:
     policy = load_policy(spec.policy)
     env = make_env(from_dict(EnvConfig, task.env), policy)
     try:
-        result = run_episode(env, policy, spec.seed)
+        result = run_episode(env, policy, spec.seed, on_step)
         cuboids = cuboid_arrays(env)
         asset = asset_type(env.sim.world.spec)
     finally:

@@ -32,6 +32,66 @@ class Crasher:
         import os
 
         os._exit(3)
+
+
+class Sleeper:
+    """A policy that never returns from act(): the sweep must time it out. It first touches a
+    file named after its pid in the folder ``SLEEPER_MARKS`` names (when set), so a test knows
+    it is running."""
+
+    observation_layers = ()
+
+    def reset(self, seed=None):
+        pass
+
+    def act(self, observation, info):
+        import os
+        import pathlib
+        import time
+
+        marks = pathlib.Path(__file__).with_name("sleeper-marks")
+        if marks.is_dir():
+            (marks / str(os.getpid())).touch()
+        while True:
+            time.sleep(1)
+
+
+class Fractional:
+    """A policy returning a valid goal + 0.9: the goal must be refused, not rounded."""
+
+    observation_layers = ()
+
+    def reset(self, seed=None):
+        pass
+
+    def act(self, observation, info):
+        import numpy as np
+
+        return int(np.flatnonzero(info["action_mask"])[0]) + 0.9
+
+
+class StringLayers:
+    """A policy declaring a string instead of a tuple of layer names."""
+
+    observation_layers = "n_obs"
+
+    def reset(self, seed=None):
+        pass
+
+    def act(self, observation, info):
+        return 0
+
+
+class UnknownLayers:
+    """A policy declaring an observation layer that does not exist."""
+
+    observation_layers = ("gain_bogus",)
+
+    def reset(self, seed=None):
+        pass
+
+    def act(self, observation, info):
+        return 0
 '''
 
 
@@ -67,7 +127,7 @@ def policy_module(tmp_path: Path) -> Path:
     return tmp_path
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def make_config():
     """:func:`write_config`, as a fixture (test modules cannot import conftest)."""
     return write_config

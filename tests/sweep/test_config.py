@@ -18,6 +18,7 @@ from nbv_gym.sweep.config import (
 )
 
 EXPERIMENTS = Path(__file__).parents[2] / "experiments"
+REQUIRED = ('worlds = ["pp1-cuboids"]\n', 'policies = ["closest-frontier"]\n')
 
 
 def test_paper_config_is_the_756_runs_of_the_paper():
@@ -36,7 +37,9 @@ def test_quick_config_exercises_every_policy():
 
 
 def test_seeds_come_from_the_key_and_pair_the_policies():
-    config = SweepConfig(worlds=("pp1-cuboids", "pp1-trees"), noise=(0, 1), repeats=2)
+    config = SweepConfig(
+        worlds=("pp1-cuboids", "pp1-trees"), policies=PAPER_POLICIES, noise=(0, 1), repeats=2
+    )
     seeds = {r.key: r.seed for r in config.runs()}
     again = {r.key: r.seed for r in SweepConfig(**{**vars(config)}).runs()}
     assert seeds == again
@@ -94,12 +97,21 @@ def test_file_names_are_safe_for_any_policy_name():
         ),
         ("retries = -1", r"retries: must be ≥ 0"),
         ("worlds = [", r"not valid TOML"),
+        ("run_timeout_s = 0", r"run_timeout_s: must be a number of seconds > 0"),
+        ('worlds = ["pp1-cuboids"]', r"missing required key\(s\) policies"),
+        ('policies = ["random-free"]', r"missing required key\(s\) worlds"),
+        ('worlds = ["pp1-cuboids"]\npolicies = [""]', r"policies\[0\]: Unknown policy ''"),
+        (
+            'worlds = ["pp1-cuboids"]\npolicies = ["closest-frontier"]\nrun_timeout_s = inf',
+            r"run_timeout_s: must be a number of seconds > 0, got inf",
+        ),
     ],
     ids=lambda v: v.split("\n")[0][:30] if isinstance(v, str) else v,
 )
 def test_malformed_configs_are_rejected_naming_the_key(tmp_path, text, message):
     path = tmp_path / "bad.toml"
-    path.write_text(text + "\n")
+    required = [line for line in REQUIRED if line.split(" =")[0] not in text]
+    path.write_text("".join(required if "missing" not in message else []) + text + "\n")
     with pytest.raises(ConfigError, match=message):
         load_sweep_config(path)
 
@@ -118,7 +130,7 @@ def test_world_spec_files_are_relative_to_the_config(tmp_path):
 
 def test_cli_rejects_a_malformed_config_with_exit_code_2(tmp_path):
     path = tmp_path / "bad.toml"
-    path.write_text('worlds = ["pp1-cuboids"]\nrepeat = 2\n')
+    path.write_text('worlds = ["pp1-cuboids"]\npolicies = ["random-free"]\nrepeat = 2\n')
     result = subprocess.run(
         [sys.executable, "-m", "nbv_gym", "sweep", str(path), "--out", str(tmp_path / "out")],
         capture_output=True,

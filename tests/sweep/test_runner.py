@@ -101,7 +101,8 @@ def test_a_dead_worker_fails_its_run_and_the_pool_recovers(tmp_path, make_config
     summary = _sweep(config, tmp_path / "out", workers=1, python_path=(str(policy_module),))
     assert summary.finished == 2
     assert list(summary.failed) == ["pp1-cuboids/noise0/bad_policies:Crasher/rep0"]
-    assert "worker process died" in summary.failed["pp1-cuboids/noise0/bad_policies:Crasher/rep0"]
+    error = summary.failed["pp1-cuboids/noise0/bad_policies:Crasher/rep0"]
+    assert "the worker process running this run exited with code 3" in error
 
 
 def test_an_unloadable_policy_stops_the_sweep_before_any_run(tmp_path, make_config, policy_module):

@@ -162,6 +162,7 @@ def tls_cluster(tmp_path):
         _stop(processes)
 
 
+@pytest.mark.slow  # three Dask processes and a sweep through them: about a minute
 def test_a_sweep_runs_on_a_tls_cluster_and_clients_without_its_certificate_are_refused(
     tmp_path, tls_cluster, make_config
 ):

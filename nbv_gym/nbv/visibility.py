@@ -16,8 +16,11 @@ pass through it. The models (:data:`VISIBILITY_MODELS`, SPEC §4) credit:
 - ``physical``: what the statistics update (SPEC §3) would really touch: a clear sight line inside
   the field of view and the range window that *ends on a surface the map already knows* (a cell
   holding an occupied voxel, p ≥ ``NbvConfig.surface_probability`` = 0.5; such cells are also what
-  blocks the lines, as a real ray stops at the first surface) credits that cell and every cell it
-  crosses whose own range is in the window. A
+  blocks the lines, as a real ray stops at the first surface) credits that cell and every cell
+  whose own range is in the window and that a ray to the cell crosses — the rays of a bundle
+  (:data:`FAN`) to its centre and to eight points a quarter cell from it, since a real scan hits
+  the surface all over its face (measured: with the centre line alone the realised gain was ≈ 2×
+  the predicted one on pp1-cuboids, with the bundle ≈ 1×). A
   line ending in free or unknown space credits nothing: the lidar's ray would either return from
   the ground (below 0.2 m, ignored by the statistics) or from nowhere.
 
@@ -43,6 +46,13 @@ from nbv_gym.grid import GridSpec
 
 #: Crossings closer than this (in units of the segment's parameter t ∈ [0, 1]) are simultaneous.
 _TIE = 1e-12
+
+#: The end point of a sight line: its target cell's centre (cell units).
+CENTRE = np.array([[0.5, 0.5, 0.5]])
+#: The end points of a physical ray bundle: the centre and the eight points a quarter cell from
+#: it along each diagonal — a real scan hits a surface cell all over its face, and the segments
+#: from those hits to the sensor cross a thicker set of cells than one centre line.
+FAN = np.vstack([CENTRE, 0.5 + 0.25 * np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T])
 
 #: The visibility models of gain prediction (module docstring), in the kernel's numbering.
 VISIBILITY_MODELS: tuple[str, ...] = ("authors", "sphere", "fov", "physical")
@@ -143,13 +153,14 @@ def sight_lines(grid: GridSpec, model: SightModel) -> SightLines:
         float(grid.res), float(grid.origin[2]), int(grid.shape[2]), model.model == "authors",
         float(model.sensor_height_m), float(model.min_range_m), float(model.max_range_m),
         *((model.elevation_min_rad, model.elevation_max_rad) if model.code >= 2 else (-9.0, 9.0)),
+        model.code == _PHYSICAL,
     )  # fmt: skip
 
 
 @functools.lru_cache(maxsize=8)
 def _sight_lines(
     res: float, z0: float, nz: int, cube: bool, sensor_height_m: float, min_range_m: float,
-    max_range_m: float, elevation_min: float, elevation_max: float,
+    max_range_m: float, elevation_min: float, elevation_max: float, fan: bool,
 ) -> SightLines:  # fmt: skip
     reach = max(int(math.floor(max_range_m / res + 1e-9) if cube else math.ceil(max_range_m / res)), 0)
     zs = (sensor_height_m - z0) / res
@@ -174,11 +185,13 @@ def _sight_lines(
     elevation = np.arcsin(np.clip(-unit[:, 2], -1.0, 1.0))  # of the line sensor → target
     aimed = (elevation >= elevation_min - 1e-12) & (elevation <= elevation_max + 1e-12)
     width = 2 * reach + 1
-    offsets, rays = _all_crossings(dx, dy, k, zs, nz, reach)
+    offsets, rays = _all_crossings(dx, dy, k, zs, nz, reach, CENTRE)
     order = np.argsort(offsets, kind="stable")
     counts = np.bincount(offsets, minlength=width * width * nz)
     crossing_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     dx_start = np.searchsorted(dx, np.arange(-reach, reach + 2)).astype(np.int64)
+    if fan:
+        offsets, rays = _all_crossings(dx, dy, k, zs, nz, reach, FAN)
     through_start, through_rays = _through_lists(offsets, rays, dx, dy, k, reach, nz)
     return SightLines(
         reach, nz, dx.astype(np.int64), dy.astype(np.int64), k.astype(np.int64), range_m, unit,
@@ -195,10 +208,9 @@ def _through_lists(offsets, rays, dx, dy, k, reach, nz) -> tuple[np.ndarray, np.
     ray_of[((dx + reach) * width + dy + reach) * nz + k] = np.arange(len(dx))
     crossed = ray_of[offsets]
     keep = crossed >= 0
-    owner, crossed = rays[keep], crossed[keep]
-    order = np.argsort(owner, kind="stable")
-    counts = np.bincount(owner, minlength=len(dx))
-    return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64), crossed[order]
+    pairs = np.unique(np.column_stack([rays[keep], crossed[keep]]), axis=0)  # sorted by ray
+    counts = np.bincount(pairs[:, 0], minlength=len(dx))
+    return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64), pairs[:, 1].copy()
 
 
 def crossed_cells(dx: int, dy: int, k: int, zs: float) -> np.ndarray:
@@ -211,12 +223,14 @@ def crossed_cells(dx: int, dy: int, k: int, zs: float) -> np.ndarray:
 
 
 @njit(cache=True)
-def _crossings(dx, dy, k, zs, out) -> int:
+def _crossings(dx, dy, k, zs, out, ex=0.5, ey=0.5, ez=0.5) -> int:
     """Write the crossed cells of one sight line to ``out`` (see :func:`crossed_cells`); return how
-    many. Crossing parameters are computed from the boundary, not accumulated, so that exact ties
-    (a segment through an edge or corner) are found exactly in x, y (both ends are column centres)."""
+    many. The line ends at ``(dx + ex, dy + ey, k + ez)``, a point of the target cell (its centre
+    by default). Crossing parameters are computed from the boundary, not accumulated, so that
+    exact ties (a segment through an edge or corner) are found exactly in x, y (both ends of a
+    centre line are column centres)."""
     p0 = np.array([0.5, 0.5, zs])
-    d = np.array([dx + 0.5, dy + 0.5, k + 0.5]) - p0
+    d = np.array([dx + ex, dy + ey, k + ez]) - p0
     cell = np.array([0, 0, int(math.floor(zs))])
     end = np.array([dx, dy, k])
     step = np.zeros(3, np.int64)
@@ -248,25 +262,29 @@ def _crossings(dx, dy, k, zs, out) -> int:
 
 
 @njit(cache=True)
-def _all_crossings(dx, dy, k, zs, nz, reach):
-    """(offset, ray) pairs of every in-grid (0 ≤ layer < nz) cell crossed by every sight line."""
+def _all_crossings(dx, dy, k, zs, nz, reach, ends):
+    """(offset, ray) pairs of every in-grid (0 ≤ layer < nz) cell crossed by every sight line;
+    a line is the union of the segments to its target cell's (e, 3) ``ends`` (points in cell
+    units inside the cell, :data:`CENTRE` or :data:`FAN`)."""
     width = 2 * reach + 1
     longest = 2 * (2 * reach + 1) + nz + int(abs(zs)) + 4
     buffer = np.empty((longest, 3), np.int64)
     total = 0
     for r in range(len(dx)):
-        total += _crossings(dx[r], dy[r], k[r], zs, buffer)
+        for e in range(ends.shape[0]):
+            total += _crossings(dx[r], dy[r], k[r], zs, buffer, ends[e, 0], ends[e, 1], ends[e, 2])
     offsets = np.empty(total, np.int64)
     rays = np.empty(total, np.int64)
     n = 0
     for r in range(len(dx)):
-        m = _crossings(dx[r], dy[r], k[r], zs, buffer)
-        for c in range(m):
-            ck = buffer[c, 2]
-            if 0 <= ck < nz:
-                offsets[n] = ((buffer[c, 0] + reach) * width + buffer[c, 1] + reach) * nz + ck
-                rays[n] = r
-                n += 1
+        for e in range(ends.shape[0]):
+            m = _crossings(dx[r], dy[r], k[r], zs, buffer, ends[e, 0], ends[e, 1], ends[e, 2])
+            for c in range(m):
+                ck = buffer[c, 2]
+                if 0 <= ck < nz:
+                    offsets[n] = ((buffer[c, 0] + reach) * width + buffer[c, 1] + reach) * nz + ck
+                    rays[n] = r
+                    n += 1
     return offsets[:n], rays[:n]
 
 

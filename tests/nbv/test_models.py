@@ -14,6 +14,8 @@ Cells, drawn by hand (x index, layer):
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -21,6 +23,7 @@ from nbv_gym.grid import GridSpec
 from nbv_gym.nbv import NbvConfig
 from nbv_gym.nbv.gains import realised_gains
 from nbv_gym.nbv.visibility import SightModel, credited_cells
+from tests.nbv.test_visibility import segment_crosses_open_box
 
 SLICE = GridSpec((0.0, 0.0, 0.0), 1.0, (16, 1, 5))
 A, B, OCC, H, S = (12, 0, 3), (11, 0, 3), (5, 0, 0), (9, 0, 0), (7, 0, 1)
@@ -47,11 +50,38 @@ def test_geometric_models_by_hand(model, a, b, near):
 
 def test_physical_model_credits_lines_ending_on_known_surfaces_and_what_they_cross():
     cells = credited("physical")
+    found = {tuple(c) for c in np.argwhere(cells)}
     line_to_s = {(2, 0, 0), (3, 0, 0), (4, 0, 1), (5, 0, 1), (6, 0, 1), S}
     line_to_o = {(2, 0, 0), (3, 0, 0), (4, 0, 0), OCC}  # (1, 0, 0) is closer than √3 m
-    assert {tuple(c) for c in np.argwhere(cells)} == line_to_s | line_to_o
+    assert line_to_s | line_to_o <= found  # the centre lines, drawn by hand
+    assert found == fan_brute_force([S, OCC])  # and the bundle to the rest of each surface cell
     assert not cells[A]  # inside the field of view, but its line ends in unknown space
     assert not cells[H] and not cells[NEAR]
+
+
+def fan_brute_force(surfaces) -> set:
+    """Each surface cell and every cell whose interior a segment from the sensor (0.5, 0.5, 0.5)
+    to the surface's centre or to a point a quarter cell from it along a diagonal passes through,
+    if its centre lies in [√3, 20) m of the sensor (slab method, cell by cell)."""
+    sensor = np.array([0.5, 0.5, 0.5])
+    ends = [
+        np.array([0.5, 0.5, 0.5]) + 0.25 * np.array(d) for d in itertools.product((-1, 1), repeat=3)
+    ]
+    out = set(surfaces)
+    for surface in surfaces:
+        for end in [np.array([0.5, 0.5, 0.5]), *ends]:
+            for cell in itertools.product(*(range(n) for n in SLICE.shape)):
+                centre = np.array(cell) + 0.5
+                if (
+                    cell in (surface, (0, 0, 0))
+                    or not 3**0.5 <= np.linalg.norm(centre - sensor) < 20
+                ):
+                    continue
+                if segment_crosses_open_box(
+                    sensor, np.array(surface) + end, np.array(cell), np.array(cell) + 1.0
+                ):
+                    out.add(cell)
+    return out
 
 
 def test_authors_sensor_stands_at_the_lowest_cell_centre():

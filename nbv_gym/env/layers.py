@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from nbv_gym.nbv import CANDIDATES_LAYER, GAIN_LAYERS, GainPredictor, NbvConfig, realised_gains
+from nbv_gym.nbv import (
+    CANDIDATES_LAYER,
+    GAIN_LAYERS,
+    GainPredictor,
+    NbvConfig,
+    NbvSensor,
+    realised_gains,
+)
 from nbv_gym.simulator import Simulator, StepOutcome
 
 #: Names of the optional layers and what they hold (flat (3600,) float32, goal order).
@@ -37,7 +44,10 @@ class OptionalLayers:
         self.names = tuple(dict.fromkeys((*names, *([CANDIDATES_LAYER] if wants_gains else []))))
         voxel_res = sim.config.mapping.map.resolution_m
         self.config = config
-        self.predictor = GainPredictor(sim.goal_grid, config, voxel_res) if self.names else None
+        self.sensor = NbvSensor.of(sim.config.lidar, sim.config.mapping)
+        self.predictor = (
+            GainPredictor(sim.goal_grid, config, voxel_res, self.sensor) if self.names else None
+        )
         self.gains = tuple(name for name in self.names if name in GAIN_LAYERS)
         self._layers: dict[str, np.ndarray] = {}
         self._before: tuple[np.ndarray, ...] | None = None
@@ -75,7 +85,7 @@ class OptionalLayers:
         now = (statistics.n_obs, statistics.r_min, statistics.sector_mask, statistics.sum_u)
         if self._before is not None and self._layers:
             goal = self.sim.state.navigation.robot_goal
-            realised = realised_gains(self._before, now, self.config)
+            realised = realised_gains(self._before, now, self.config, self.sensor)
             self._calibration = {
                 "predicted_gain": {n: float(self._layers[n][goal]) for n in self.gains},
                 "realised_gain": {n: realised[n] for n in self.gains},

@@ -1,6 +1,6 @@
 """Statistic-based Next-Best-View (SPEC §4, paper §III-C): occlusion, sight lines, predicted gains."""
 
-from nbv_gym.nbv.config import NbvConfig
+from nbv_gym.nbv.config import NbvConfig, NbvSensor
 from nbv_gym.nbv.gains import (
     GAIN_LAYERS,
     candidate_mask,
@@ -19,6 +19,7 @@ __all__ = [
     "GAIN_LAYERS",
     "GainPredictor",
     "NbvConfig",
+    "NbvSensor",
     "OcclusionGrid",
     "candidate_mask",
     "goal_centres_xy",

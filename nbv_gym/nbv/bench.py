@@ -74,9 +74,10 @@ def _visible_per_candidate(state: ExplorationState, predictor: GainPredictor, ro
     gain (every visible cell gains > 0). Kept out of the timed decision."""
     candidates = predictor.candidates(state.navigation.goal_mask(), robot_xy)
     args = (state.statistics, predictor.occlusion.mask, robot_xy, candidates)
-    total = predict_gains(*args, predictor.config, ("gain_nobs",))["gain_nobs"].ravel()
+    sensor = predictor.sensor
+    total = predict_gains(*args, predictor.config, ("gain_nobs",), sensor)["gain_nobs"].ravel()
     mean_config = replace(predictor.config, aggregate="mean")
-    mean = predict_gains(*args, mean_config, ("gain_nobs",))["gain_nobs"].ravel()
+    mean = predict_gains(*args, mean_config, ("gain_nobs",), sensor)["gain_nobs"].ravel()
     seen = candidates & (mean > 0)
     counts = np.rint(total[seen].astype(np.float64) / mean[seen])
     return float(counts.sum() / max(int(candidates.sum()), 1))

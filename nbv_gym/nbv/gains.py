@@ -41,7 +41,7 @@ from nbv_gym.arrays import BoolArray, FloatArray
 from nbv_gym.errors import NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.statistics import ViewpointStatistics, spherical_variance
-from nbv_gym.nbv.config import NbvConfig
+from nbv_gym.nbv.config import NbvConfig, NbvSensor
 from nbv_gym.nbv.visibility import credited_rays, occluder_cells, sight_lines
 
 #: The gain layers, in the order of the kernel's output columns.
@@ -82,6 +82,7 @@ def predict_gains(
     candidates: BoolArray,
     config: NbvConfig,
     layers: Sequence[str] = GAIN_LAYERS,
+    sensor: NbvSensor | None = None,
 ) -> dict[str, np.ndarray]:
     """The gain layers of the candidates, read from ``statistics`` (see :func:`predict_gains_arrays`
     for the arguments)."""
@@ -96,6 +97,7 @@ def predict_gains(
         candidates,
         config,
         layers,
+        sensor,
     )
 
 
@@ -110,6 +112,7 @@ def predict_gains_arrays(
     candidates: BoolArray,
     config: NbvConfig,
     layers: Sequence[str] = GAIN_LAYERS,
+    sensor: NbvSensor | None = None,
 ) -> dict[str, np.ndarray]:
     """Predicted gain E[I(a_T)] of every candidate goal, one (nx, ny) layer per statistic.
 
@@ -123,8 +126,10 @@ def predict_gains_arrays(
         occluding: (nx, ny, nz) bool cells that occlude (hold a voxel with p ≥ 0.8).
         robot_xy: (2,) float the robot's position R, metres.
         candidates: (nx · ny,) or (nx, ny) bool candidate goals (row-major index i · ny + j).
-        config: the NBV config (ranges, sensor height, floors, aggregate, sectors).
+        config: the NBV config (visibility model, floors, aggregate).
         layers: which of :data:`GAIN_LAYERS` to compute.
+        sensor: the sensor predicted for (ranges, height, field of view, sectors); default
+            :meth:`NbvSensor.default`.
 
     Returns:
         For each requested layer name, an (nx, ny) float32 array indexed ``[i, j]`` = goal
@@ -136,9 +141,10 @@ def predict_gains_arrays(
     nx, ny, nz = grid.shape
     _checked(n_obs, grid.shape, "n_obs")
     candidates = _candidate_cells(candidates, nx, ny)
-    table = cell_table(n_obs, r_min, sector_mask, sum_u, config)
+    sensor = sensor or NbvSensor.default()
+    table = cell_table(n_obs, r_min, sector_mask, sum_u, config, sensor)
     robot_azimuth, robot_on_axis = _robot_azimuths(grid, robot_xy)
-    model = config.sight_model()
+    model = config.sight_model(sensor)
     lines = sight_lines(grid, model)
     occluding = np.asarray(_checked(occluding, grid.shape, "occluding"), bool)
     wanted = np.array([name in layers for name in GAIN_LAYERS])
@@ -147,7 +153,7 @@ def predict_gains_arrays(
         lines.reach, nz, lines.crossing_start, lines.crossing_rays, lines.dx_start,
         lines.dx, lines.dy, lines.k, lines.range_m, lines.unit, lines.azimuth, lines.aimed,
         lines.through_start, lines.through_rays, nx, ny, table, robot_azimuth, robot_on_axis,
-        config.n_sectors, _log_floor_table(config.gain_floor), config.gain_floor,
+        sensor.n_sectors, _log_floor_table(config.gain_floor), config.gain_floor,
         _first_sigma(config), wanted,
     )  # fmt: skip
     if config.aggregate == "mean":
@@ -162,7 +168,10 @@ def predict_gains_arrays(
 
 
 def realised_gains(
-    before: tuple[np.ndarray, ...], after: tuple[np.ndarray, ...], config: NbvConfig
+    before: tuple[np.ndarray, ...],
+    after: tuple[np.ndarray, ...],
+    config: NbvConfig,
+    sensor: NbvSensor | None = None,
 ) -> dict[str, float]:
     """The gain a real scan achieved, per statistic: the per-cell formulas of the prediction
     applied to the statistics before and after it, aggregated like the prediction.
@@ -171,7 +180,8 @@ def realised_gains(
     Keys are :data:`GAIN_LAYERS`. With ``aggregate="mean"`` the sum is divided by the number of
     cells whose n_obs grew.
     """
-    b, a = cell_table(*before, config), cell_table(*after, config)
+    sensor = sensor or NbvSensor.default()
+    b, a = cell_table(*before, config, sensor), cell_table(*after, config, sensor)
     floor = config.gain_floor
     n_b, n_a = b[:, _N_NEXT] - 1.0, a[:, _N_NEXT] - 1.0
     grew = n_a > n_b
@@ -197,6 +207,7 @@ def cell_table(
     sector_mask: np.ndarray,
     sum_u: np.ndarray,
     config: NbvConfig,
+    sensor: NbvSensor,
 ) -> np.ndarray:
     """(nx · ny · nz, 11) float64 per-cell values the kernel reads (candidate-independent parts of
     the gains, computed once per decision): n_obs gain, r_min (``unobserved_r_min_m`` if never
@@ -213,7 +224,7 @@ def cell_table(
     sum_u = _checked(np.asarray(sum_u, np.float64), (*shape, 3), "sum_u")
     floor = config.gain_floor
     sigma = spherical_variance(sum_u, np.asarray(n_obs))
-    mask = mask & np.uint32((1 << config.n_sectors) - 1)
+    mask = mask & np.uint32((1 << sensor.n_sectors) - 1)
     n_omega = _popcount(mask)
     table = np.empty((*shape, _N_COLUMNS))
     table[..., _NOBS_GAIN] = np.log((n + 1.0) / np.maximum(n, floor))  # â = b + 1

@@ -11,7 +11,7 @@ from nbv_gym.errors import NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.occupancy import OccupancyMap
 from nbv_gym.mapping.statistics import ViewpointStatistics
-from nbv_gym.nbv.config import NbvConfig
+from nbv_gym.nbv.config import NbvConfig, NbvSensor
 from nbv_gym.nbv.gains import GAIN_LAYERS, candidate_mask, goal_centres_xy, predict_gains
 from nbv_gym.nbv.occlusion import OcclusionGrid
 
@@ -27,14 +27,23 @@ class GainPredictor:
         grid: the statistics grid G (its x, y cells are the goals).
         config: the NBV config.
         voxel_res: the map's voxel size, metres.
+        sensor: the sensor predicted for (default: :meth:`NbvSensor.default`).
 
     Use: :meth:`reset` at the start of an episode, :meth:`observe` after each scan with the map and
     the scan's ``ScanUpdate.touched``, then :meth:`predict` for the layers.
     """
 
-    def __init__(self, grid: GridSpec, config: NbvConfig, voxel_res: float = 0.1):
+    def __init__(
+        self,
+        grid: GridSpec,
+        config: NbvConfig,
+        voxel_res: float = 0.1,
+        sensor: NbvSensor | None = None,
+    ):
         self.grid = grid
         self.config = config
+        self.sensor = sensor or NbvSensor.default()
+        config.sight_model(self.sensor)  # checks config and sensor together
         self.occlusion = OcclusionGrid(grid, voxel_res, config.blocking_probability)
         self._centres = goal_centres_xy(grid)
 
@@ -75,7 +84,7 @@ class GainPredictor:
         gains = [name for name in layers if name != CANDIDATES_LAYER]
         candidates = self.candidates(goal_mask, robot_xy)
         out = predict_gains(
-            statistics, self.occlusion.mask, robot_xy, candidates, self.config, gains
+            statistics, self.occlusion.mask, robot_xy, candidates, self.config, gains, self.sensor
         )
         out[CANDIDATES_LAYER] = candidates.reshape(self.grid.shape[:2]).astype(np.float32)
         return out

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,13 +11,22 @@ import pytest
 from nbv_gym.errors import ConfigError, NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.statistics import ViewpointStatistics
-from nbv_gym.nbv import GAIN_LAYERS, NbvConfig, candidate_mask, predict_gains, swept_sectors
+from nbv_gym.nbv import (
+    GAIN_LAYERS,
+    NbvConfig,
+    NbvSensor,
+    candidate_mask,
+    predict_gains,
+    swept_sectors,
+)
 from nbv_gym.nbv.gains import goal_centres_xy, predict_gains_arrays
 from nbv_gym.nbv.visibility import SightModel, credited_cells
 
 # A row of cells, one layer, the sensor at the layer's mid-height: the sensor of the candidate at
 # column i sees the other cells of the row at ranges |i' − i| metres.
-CONFIG = NbvConfig(min_range_m=0.5, sensor_range_m=10.0, sensor_height_m=0.5, visibility="sphere")
+CONFIG = NbvConfig(visibility="sphere")
+SENSOR = NbvSensor(sensor_range_m=10.0, min_range_m=0.5, sensor_height_m=0.5, n_sectors=32,
+                   elevation_min_rad=-0.26, elevation_max_rad=0.26)  # fmt: skip
 LN_1000 = math.log(1000.0)
 
 
@@ -43,7 +53,7 @@ class Cells:
         candidates[candidate] = True
         layers = predict_gains_arrays(
             self.grid, self.n_obs, self.r_min, self.sectors, self.sum_u, self.occluding,
-            np.asarray(robot_xy, float), candidates, config,
+            np.asarray(robot_xy, float), candidates, config, sensor=SENSOR,
         )  # fmt: skip
         return {name: float(layer[candidate, 0]) for name, layer in layers.items()}
 
@@ -151,7 +161,7 @@ def test_layers_are_zero_outside_the_candidates():
     candidates = np.array([False, True, False, True, False])
     layers = predict_gains_arrays(
         cells.grid, cells.n_obs, cells.r_min, cells.sectors, cells.sum_u, cells.occluding,
-        np.array([0.5, 0.5]), candidates, CONFIG,
+        np.array([0.5, 0.5]), candidates, CONFIG, sensor=SENSOR,
     )  # fmt: skip
     assert set(layers) == set(GAIN_LAYERS)
     for layer in layers.values():
@@ -168,7 +178,9 @@ def test_layers_can_be_asked_for_one_by_one():
     candidates = np.array([True, False, False])
     args = (cells.grid, cells.n_obs, cells.r_min, cells.sectors, cells.sum_u, cells.occluding)
     for name in GAIN_LAYERS:
-        alone = predict_gains_arrays(*args, np.array([0.5, 0.5]), candidates, CONFIG, (name,))
+        alone = predict_gains_arrays(
+            *args, np.array([0.5, 0.5]), candidates, CONFIG, (name,), SENSOR
+        )
         assert list(alone) == [name] and float(alone[name][0, 0]) == everything[name]
     with pytest.raises(NbvGymError, match="unknown gain layer"):
         predict_gains_arrays(*args, np.array([0.5, 0.5]), candidates, CONFIG, ("gain_foo",))
@@ -214,10 +226,13 @@ def test_gains_from_real_statistics_count_the_visible_cells():
     occluding = rng.random(grid.shape) < 0.1
     candidates = np.zeros(64, bool)
     candidates[[9, 27, 50]] = True
-    config = NbvConfig(sensor_range_m=6.0, visibility="sphere")
-    layers = predict_gains(stats, occluding, np.zeros(2), candidates, config)
+    config = NbvConfig(visibility="sphere")
+    sensor = replace(NbvSensor.default(), sensor_range_m=6.0)
+    layers = predict_gains(stats, occluding, np.zeros(2), candidates, config, sensor=sensor)
     for goal in (9, 27, 50):
-        visible = credited_cells(occluding, divmod(goal, 8), grid, SightModel("sphere", 0.42, math.sqrt(3), 6.0))
+        visible = credited_cells(
+            occluding, divmod(goal, 8), grid, SightModel("sphere", 0.42, math.sqrt(3), 6.0)
+        )
         assert layers["gain_nobs"].ravel()[goal] == pytest.approx(visible.sum() * LN_1000, rel=1e-6)
 
 
@@ -225,6 +240,40 @@ def test_config_is_checked():
     with pytest.raises(ConfigError, match="aggregate"):
         NbvConfig(aggregate="median")
     with pytest.raises(ConfigError, match="min_range_m"):
-        NbvConfig(min_range_m=30.0)
+        replace(NbvSensor.default(), min_range_m=30.0)
     with pytest.raises(ConfigError, match="n_sectors"):
-        NbvConfig(n_sectors=33)
+        replace(NbvSensor.default(), n_sectors=33)
+    with pytest.raises(ConfigError, match="nbv.unobserved_r_min_m"):
+        NbvConfig(unobserved_r_min_m=50.0).sight_model(replace(SENSOR, sensor_range_m=60.0))
+
+
+def test_the_sensor_is_the_simulators():
+    """Range, minimum range, height, sectors and field of view come from the lidar and mapping
+    configs (one home each): a longer mapping range lengthens the predicted sight lines too."""
+    from nbv_gym.lidar import LidarConfig
+    from nbv_gym.mapping import MappingConfig, StatisticsConfig
+
+    lidar = LidarConfig(mount_height_m=0.5, elevation_min_rad=-0.3)
+    mapping = MappingConfig(sensor_range_m=30.0, statistics=StatisticsConfig(n_sectors=16))
+    sensor = NbvSensor.of(lidar, mapping)
+    assert (sensor.sensor_range_m, sensor.sensor_height_m, sensor.n_sectors) == (30.0, 0.5, 16)
+    assert sensor.min_range_m == pytest.approx(math.sqrt(3.0))
+    assert (sensor.elevation_min_rad, sensor.elevation_max_rad) == (-0.3, 0.26)
+    assert NbvSensor.default() == NbvSensor.of(LidarConfig(), MappingConfig())
+
+
+@pytest.mark.parametrize("key", ["sensor_range_m", "min_range_m", "sensor_height_m", "n_sectors"])
+def test_sensor_keys_of_the_nbv_config_are_refused(key):
+    from nbv_gym.config import from_dict
+    from nbv_gym.env import EnvConfig
+
+    with pytest.raises(ConfigError, match=rf"nbv\.{key}"):
+        from_dict(EnvConfig, {"nbv": {key: 1}})
+
+
+def test_the_environment_predicts_for_its_own_sensor_range():
+    from nbv_gym.env import ExploreEnv
+
+    config = {"simulator": {"world": "pp1-cuboids", "mapping": {"sensor_range_m": 25.0}}}
+    env = ExploreEnv(config=config, observation_layers=["gain_nobs"])
+    assert env.optional.predictor.sensor.sensor_range_m == 25.0

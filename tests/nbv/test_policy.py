@@ -8,7 +8,7 @@ import pytest
 from baselines.nbv import NbvNobs, NbvNomega, NbvPolicy, NbvRmin, NbvSigma, near_uniform
 from nbv_gym.errors import ConfigError, NbvGymError
 from nbv_gym.grid import GridSpec
-from nbv_gym.nbv import NbvConfig, predict_gains_arrays
+from nbv_gym.nbv import NbvConfig, NbvSensor, predict_gains_arrays
 
 POLICIES = {"nobs": NbvNobs, "rmin": NbvRmin, "nomega": NbvNomega, "sigma": NbvSigma}
 
@@ -51,10 +51,12 @@ class Corridor:
     def observation(self, cost=(0.0, 0.0)):
         candidates = np.zeros(9, bool)
         candidates[[1, 7]] = True
-        config = NbvConfig(min_range_m=0.5, sensor_range_m=10.0, sensor_height_m=0.5, visibility="sphere")
+        config = NbvConfig(visibility="sphere")
+        sensor = NbvSensor(sensor_range_m=10.0, min_range_m=0.5, sensor_height_m=0.5, n_sectors=32,
+                           elevation_min_rad=-0.26, elevation_max_rad=0.26)  # fmt: skip
         layers = predict_gains_arrays(
             self.grid, self.n_obs, self.r_min, self.sectors, self.sum_u, self.occluding,
-            np.array([4.5, 3.5]), candidates, config,
+            np.array([4.5, 3.5]), candidates, config, sensor=sensor,
         )  # fmt: skip
         costs = np.ones((9, 1), np.float32)
         costs[[1, 7], 0] = cost

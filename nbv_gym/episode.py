@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import csv
 import json
-import platform
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +15,7 @@ import numpy as np
 from nbv_gym.config import to_dict
 from nbv_gym.env.explore import EnvConfig, ExploreEnv
 from nbv_gym.policies import Policy, required_layers
+from nbv_gym.provenance import versions
 
 STEP_COLUMNS = ("step", "goal", "discovered", "q", "q_paper", "reward", "path_length_m", "time_s")
 
@@ -117,35 +116,6 @@ def _write_exports(out: Path, env: ExploreEnv) -> None:
 
     export_map(env.sim.state.occupancy, out / "map.ply")
     write_trajectory(out / TRAJECTORY_NAME, env.sim.trajectory)
-
-
-def versions() -> dict[str, str]:
-    """Versions of Python and the libraries a result depends on, and the project's git commit
-    (``git describe --always --dirty``) when nbv-gym runs from a git checkout."""
-    packages = ("nbv-gym", "numpy", "scipy", "numba", "embreex", "trimesh", "gymnasium", "pot",
-                "torch", "stable-baselines3")  # fmt: skip
-    found = {"python": platform.python_version()}
-    for name in packages:
-        try:
-            found[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            found[name] = "not installed"
-    found["git_commit"] = git_commit()
-    return found
-
-
-def git_commit() -> str:
-    """The checkout's commit (``-dirty`` when modified), or ``"unknown"`` outside a checkout."""
-    import subprocess
-
-    try:
-        done = subprocess.run(
-            ["git", "describe", "--always", "--dirty", "--abbrev=40"],
-            cwd=Path(__file__).parent, capture_output=True, text=True, timeout=10,
-        )  # fmt: skip
-    except (OSError, subprocess.SubprocessError):
-        return "unknown"
-    return done.stdout.strip() if done.returncode == 0 and done.stdout.strip() else "unknown"
 
 
 def _plain(value: Any) -> Any:

@@ -50,15 +50,17 @@ class Policy(Protocol):
 #: Prefix of a trained stable-baselines3 model: ``"sb3:runs/ppo/best_model.zip"``.
 SB3_PREFIX = "sb3:"
 
+#: Registered name prefixes → ``module:Class`` built from the rest of the name (a path).
+PREFIXES: dict[str, str] = {SB3_PREFIX: "nbv_gym.rl.agent:SB3Policy"}
+
 
 def load_policy(name: str, **kwargs: Any) -> Policy:
     """A new policy from a registered name (``"closest-frontier"``), ``"module:Class"`` or
     ``"sb3:PATH"`` (a model saved by ``nbv-gym train``); ``kwargs`` go to the class's
     constructor."""
-    if name.startswith(SB3_PREFIX):
-        from nbv_gym.rl.agent import SB3Policy
-
-        return SB3Policy(name[len(SB3_PREFIX) :], **kwargs)
+    for prefix, target in PREFIXES.items():
+        if name.startswith(prefix):
+            return _import_class(target, name)(name[len(prefix) :], **kwargs)
     target = POLICIES.get(name, name)
     if ":" not in target:
         raise UnknownNameError("policy", name, POLICIES)

@@ -7,7 +7,6 @@ space or observation layers do not fit ``Explore-v0``.
 
 from __future__ import annotations
 
-import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -17,6 +16,7 @@ import numpy as np
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.env.observation import BASE_LAYERS, STATE_SIZE
 from nbv_gym.policies import PolicyError
+from nbv_gym.rl.modelfile import check_model_file
 
 N_GOALS = 3600
 STATE_KEY = "state"
@@ -58,14 +58,6 @@ class SB3Policy:
             return int(action)
         action, _ = self.model.predict(obs, deterministic=True)
         return nearest_valid_goal(int(action), mask)
-
-
-def check_model_file(path: Path) -> None:
-    """Raise :class:`PolicyError` unless ``path`` is an SB3 model zip."""
-    if not path.is_file():
-        raise PolicyError(f"No SB3 model at {str(path)!r}: expected a .zip saved by nbv-gym train.")
-    if not zipfile.is_zipfile(path):
-        raise PolicyError(f"{str(path)!r} is not an SB3 model: expected a .zip file.")
 
 
 def load_model(path: Path, device: str = "cpu"):

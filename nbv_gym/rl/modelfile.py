@@ -50,6 +50,14 @@ class ModelDescription:
     observation_space: Any
 
 
+def check_model_file(path: Path) -> None:
+    """Raise :class:`PolicyError` unless ``path`` is an SB3 model zip."""
+    if not path.is_file():
+        raise PolicyError(f"No SB3 model at {str(path)!r}: expected a .zip saved by nbv-gym train.")
+    if not zipfile.is_zipfile(path):
+        raise PolicyError(f"{str(path)!r} is not an SB3 model: expected a .zip file.")
+
+
 def describe_model(path: Path) -> ModelDescription:
     """The algorithm and spaces the ``data`` JSON of the SB3 zip at ``path`` declares, without
     unpickling; :class:`PolicyError` naming the file if it is not an SB3 model zip."""

@@ -117,7 +117,7 @@ def make_eval_env(config: TrainConfig):
 
 def write_run_info(config: TrainConfig, out: Path) -> None:
     """Write ``config.toml`` and ``system_info.txt`` (platform and library versions)."""
-    from nbv_gym.episode import versions
+    from nbv_gym.provenance import versions
 
     (out / "config.toml").write_text(dumps_toml(to_dict(config)))
     found = versions()
@@ -214,7 +214,7 @@ def _create(config: TrainConfig, envs, verbose: int):
 def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbose: int):
     if resume is None:
         return _create(config, envs, verbose)
-    from nbv_gym.rl.agent import check_model_file
+    from nbv_gym.rl.modelfile import check_model_file
 
     check_model_file(Path(resume))
     cls = algorithm_class(config.algorithm)

@@ -16,6 +16,7 @@ from nbv_gym.arrays import FloatArray, IntArray
 from nbv_gym.config import check
 from nbv_gym.errors import PoseError
 from nbv_gym.pose import LocalisationNoise, Pose
+from nbv_gym.scene import RayScene
 
 if TYPE_CHECKING:
     from nbv_gym.worlds import World
@@ -136,35 +137,6 @@ class LidarConfig:
         return np.stack(
             [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1
         ).reshape(-1, 3)
-
-
-class RayScene:
-    """Embree ray casting against a triangle mesh (embreex).
-
-    Args:
-        vertices: (V, 3) float vertex positions, metres.
-        faces: (F, 3) int vertex indices of each triangle.
-    """
-
-    def __init__(self, vertices: FloatArray, faces: IntArray):
-        from embreex import mesh_construction, rtcore_scene
-
-        self._scene = rtcore_scene.EmbreeScene()
-        self._mesh = mesh_construction.TriangleMesh(
-            self._scene,
-            np.ascontiguousarray(vertices, dtype=np.float32),
-            np.ascontiguousarray(faces, dtype=np.int32),
-        )
-        self.n_triangles = len(faces)
-
-    def cast(self, origins: FloatArray, directions: FloatArray) -> FloatArray:
-        """(n,) float64 distance along each (n, 3) unit direction from each (n, 3) origin to the
-        first hit, ``inf`` where the ray hits nothing."""
-        origins = np.ascontiguousarray(np.broadcast_to(origins, directions.shape), np.float32)
-        result = self._scene.run(origins, np.ascontiguousarray(directions, np.float32), output=1)
-        distance = result["tfar"].astype(np.float64)
-        distance[result["geomID"] < 0] = np.inf
-        return distance
 
 
 class Lidar:

@@ -23,10 +23,11 @@ import numpy as np
 
 from nbv_gym.errors import MissingExtraError
 from nbv_gym.grid import GridSpec
-from nbv_gym.lidar import Lidar, LidarConfig, RayScene, Scan
+from nbv_gym.lidar import Lidar, LidarConfig, Scan
 from nbv_gym.mapping.occupancy import OccupancyMap
 from nbv_gym.mapping.state import ExplorationState, MappingConfig
 from nbv_gym.pose import LocalisationNoise, Pose
+from nbv_gym.scene import RayScene
 
 #: Robot ground poses (x, y, yaw) of the benchmark scans: a short walk around the start.
 BENCH_POSES = ((0.0, 0.0, 0.0), (2.0, 0.0, 0.5), (4.0, 1.0, 1.0), (3.0, 3.0, 1.5), (0.0, 3.0, 2.0),

@@ -63,7 +63,7 @@ class World:
 
     @cached_property
     def _ray_scene(self):
-        from nbv_gym.lidar import RayScene
+        from nbv_gym.scene import RayScene
 
         return RayScene(self.vertices, self.faces)
 

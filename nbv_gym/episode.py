@@ -103,8 +103,7 @@ def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: di
         "versions": versions(),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_plain))
-    env.sim.state.occupancy.save(out / "map.npz")
-    env.sim.state.statistics.save(out / "statistics.npz")
+    env.sim.save(out)
     _write_exports(out, env)
 
 
@@ -114,7 +113,7 @@ def _write_exports(out: Path, env: ExploreEnv) -> None:
     from nbv_gym.mapping.export import export_map
     from nbv_gym.view import TRAJECTORY_NAME, write_trajectory
 
-    export_map(env.sim.state.occupancy, out / "map.ply")
+    export_map(env.sim.occupancy, out / "map.ply")
     write_trajectory(out / TRAJECTORY_NAME, env.sim.trajectory)
 
 

@@ -158,7 +158,7 @@ class ExploreEnv(gymnasium.Env):
         sim = self.sim
         optional = self.optional.compute(self._last)
         return self.observer.observe(
-            sim.state.navigation, sim.state.statistics, sim.pose, sim.steps, optional
+            sim.navigation, sim.statistics, sim.pose, sim.steps, optional
         )
 
     def _info(self) -> dict[str, Any]:

@@ -84,7 +84,7 @@ class OptionalLayers:
         """Compare the last prediction at the goal reached with what the scan realised."""
         now = (statistics.n_obs, statistics.r_min, statistics.sector_mask, statistics.sum_u)
         if self._before is not None and self._layers:
-            goal = self.sim.state.navigation.robot_goal
+            goal = self.sim.navigation.robot_goal
             realised = realised_gains(self._before, now, self.config, self.sensor)
             self._calibration = {
                 "predicted_gain": {n: float(self._layers[n][goal]) for n in self.gains},
@@ -96,13 +96,13 @@ class OptionalLayers:
         """The requested layers for the simulator's state after ``outcome``'s scan."""
         if self.predictor is None:
             return {}
-        state = self.sim.state
+        sim = self.sim
         if self.gains:
-            self._calibrate(state.statistics)
-        self.predictor.observe(state.occupancy, outcome.touched)
+            self._calibrate(sim.statistics)
+        self.predictor.observe(sim.occupancy, outcome.touched)
         robot_xy = np.array([self.sim.pose.x, self.sim.pose.y])
         layers = self.predictor.predict(
-            state.statistics, robot_xy, state.navigation.goal_mask(), self.names
+            sim.statistics, robot_xy, sim.navigation.goal_mask(), self.names
         )
         self._layers = {name: layers[name].ravel() for name in self.names}
         return self._layers

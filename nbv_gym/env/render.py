@@ -24,13 +24,13 @@ def render_rgb(sim: Simulator, size_px: int = 520) -> np.ndarray:
     extent = _extent(sim)
     left.imshow(_map_image(sim).transpose(1, 0, 2), origin="lower", extent=extent)
     _draw_path(left, sim)
-    n_obs = sim.state.statistics.n_obs.sum(axis=2)
+    n_obs = sim.statistics.column("n_obs")
     heat = right.imshow(np.log1p(n_obs).T, origin="lower", extent=extent, cmap="magma")
     _draw_path(right, sim)
     figure.colorbar(heat, ax=right, fraction=0.046, label="log(1 + n_obs) per 1 m column")
     summary = sim.summary
     left.set_title(
-        f"step {sim.steps} · discovered {sim.state.navigation.discovered_fraction:.0%}",
+        f"step {sim.steps} · discovered {sim.navigation.discovered_fraction:.0%}",
         fontsize=11,
     )
     right.set_title(
@@ -78,7 +78,7 @@ def _extent(sim: Simulator) -> tuple[float, float, float, float]:
 
 
 def _map_image(sim: Simulator) -> np.ndarray:
-    nav = sim.state.navigation
+    nav = sim.navigation
     image = np.empty((*nav.known.shape, 3))
     image[:] = UNKNOWN
     image[nav.free] = FREE

@@ -202,7 +202,7 @@ def cuboid_arrays(env) -> dict[str, Any]:
     import numpy as np
 
     metrics = env.sim.quality.metrics()
-    stats = env.sim.state.statistics
+    stats = env.sim.statistics
     n_obs = stats.n_obs
     if n_obs.shape != metrics.u_occ.shape:
         raise ValueError(

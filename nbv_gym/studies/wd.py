@@ -27,6 +27,7 @@ import numpy as np
 
 from nbv_gym.arrays import BoolArray, FloatArray, IntArray
 from nbv_gym.config import check
+from nbv_gym.errors import ConfigError
 from nbv_gym.grid import GridSpec
 from nbv_gym.metrics.cuboids import (
     COV_SETTINGS,
@@ -108,11 +109,15 @@ def keyed_rng(seed: int, *key: object) -> np.random.Generator:
 def study_grid(resolution_m: float) -> GridSpec:
     """The benchmark's comparison box (G's extent) at ``resolution_m``; whole 10-voxel cuboids."""
     box = benchmark_grid()
-    grid = GridSpec.from_bounds(tuple(box.low), tuple(box.high), resolution_m)
-    if any(s % 10 for s in grid.shape):
+    low, high = (tuple(float(v) for v in corner) for corner in (box.low, box.high))
+    try:
+        grid = GridSpec.from_bounds(low, high, resolution_m)
+    except ConfigError:
+        grid = None
+    if grid is None or any(s % 10 for s in grid.shape):
         raise StudyError(
-            f"resolution {resolution_m} m does not cut the box {tuple(box.low)}–{tuple(box.high)} "
-            "into whole 10-voxel cuboids; use 0.1 or 0.05"
+            f"resolution {resolution_m} m does not cut the comparison box {low}–{high} into "
+            "whole 10-voxel cuboids; use for instance 0.1 or 0.05"
         )
     return grid
 

@@ -155,8 +155,10 @@ def run(
     Examples:
 
     \b
-      nbv-gym run --world pp1-trees --policy closest-frontier --noise 1 --seed 0 --out runs/cf
-      nbv-gym run --policy my_module:MyPolicy --world my_world.toml --no-animation
+      nbv-gym run --world pp1-trees --policy closest-frontier --noise 1 \\
+          --seed 0 --out runs/cf
+      nbv-gym run --policy my_module:MyPolicy --world my_world.toml \\
+          --no-animation
     """
 
     from nbv_gym.env.explore import EnvConfig

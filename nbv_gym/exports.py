@@ -108,8 +108,10 @@ def record(
     Examples:
 
     \b
-      nbv-gym record --policy nbv-nobs --world pp1-trees --episodes 3 --out data/nbv-nobs
-      nbv-gym record --policy closest-frontier --world pp2-crosses --max-steps 30 --out data/cf
+      nbv-gym record --policy nbv-nobs --world pp1-trees --episodes 3 \\
+          --out data/nbv-nobs
+      nbv-gym record --policy closest-frontier --world pp2-crosses \\
+          --max-steps 30 --out data/cf
     """
     from nbv_gym.record import record_dataset
 

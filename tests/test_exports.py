@@ -62,3 +62,17 @@ def test_new_commands_have_help_with_examples():
         result = nbv_gym(command, "--help")
         assert result.returncode == 0 and "Examples:" in result.stdout, command
     assert "--eval-every" in nbv_gym("train", "--help").stdout
+
+
+def test_help_examples_fit_an_80_column_terminal():
+    from typer.testing import CliRunner
+
+    from nbv_gym.cli import app
+
+    commands = (["run"], ["evaluate"], ["sweep"], ["report"], ["train"], ["bench"], ["export"],
+                ["view"], ["record"], ["worlds", "build"], ["study", "wd"], ["study", "empir3d"])  # fmt: skip
+    for command in commands:
+        result = CliRunner().invoke(app, [*command, "--help"], terminal_width=80)
+        examples = result.output.split("Examples:")[-1].split("Options:")[0]
+        long = [line for line in examples.splitlines() if len(line) >= 80]
+        assert result.exit_code == 0 and "nbv-gym" in examples and not long, (command, long)

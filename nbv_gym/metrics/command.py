@@ -77,10 +77,15 @@ def evaluate_map(
     from nbv_gym.metrics.wasserstein import wd_occ
 
     grid = benchmark_grid()
-    prob = load_probability(map_path, grid)
-    truth = load_ground_truth(world, ground_truth, grid)
-    metrics = evaluate_cuboids(prob, truth)
-    wd = wd_occ(prob, truth, metrics.config, metrics.observed)
+    with _Stages(4) as stage:
+        stage("reading the map")
+        prob = load_probability(map_path, grid)
+        stage("reading the ground truth")
+        truth = load_ground_truth(world, ground_truth, grid)
+        stage("cov, L1, Q per cuboid (kernels compile on a first run, then are cached)")
+        metrics = evaluate_cuboids(prob, truth)
+        stage("WD_occ per cuboid")
+        wd = wd_occ(prob, truth, metrics.config, metrics.observed)
     summary = _map_summary(metrics, wd)
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
@@ -248,3 +253,30 @@ def _table(summary: dict) -> str:
 
 def _format(value) -> str:
     return f"{value:.6g}" if isinstance(value, float) else str(value)
+
+
+class _Stages:
+    """A progress bar (stderr) over the named stages of a command: ``stage(name)`` starts the
+    next one, so a slow first run (compiling kernels) shows where it is."""
+
+    def __init__(self, total: int):
+        import sys
+
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=total, unit="stage", file=sys.stderr, leave=False,
+                        bar_format="{desc}{n_fmt}/{total_fmt} stages [{elapsed}]")  # fmt: skip
+        self.started = False
+
+    def __enter__(self) -> _Stages:
+        return self
+
+    def __call__(self, name: str) -> None:
+        if self.started:
+            self.bar.update()
+        self.started = True
+        self.bar.set_description(name)
+
+    def __exit__(self, *exc) -> None:
+        self.bar.update()
+        self.bar.close()

@@ -45,9 +45,11 @@ def train(
 
     \b
       nbv-gym train --config experiments/ppo.toml
-      nbv-gym train --config experiments/ppo.toml --timesteps 5000 --out runs/ppo-short
+      nbv-gym train --config experiments/ppo.toml --timesteps 5000 \\
+          --out runs/ppo-short
       nbv-gym train --config experiments/ppo.toml --eval-every 2000
-      nbv-gym train --config experiments/ppo.toml --resume runs/ppo/checkpoints/model_8000_steps.zip
+      nbv-gym train --config experiments/ppo.toml \\
+          --resume runs/ppo/checkpoints/model_8000_steps.zip
       tensorboard --logdir runs/ppo/logs
       nbv-gym run --policy sb3:runs/ppo/best_model.zip --world pp3-trees
     """

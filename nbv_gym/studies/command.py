@@ -68,7 +68,8 @@ def study_wd(
 
     \b
       nbv-gym study wd --out studies/wd
-      nbv-gym study wd --out studies/wd-trees --worlds pp1-trees,pp2-trees --resolution 0.1
+      nbv-gym study wd --out studies/wd-trees --worlds pp1-trees,pp2-trees \\
+          --resolution 0.1
       nbv-gym study wd --out studies/mine --runs my_runs/ --cuboids 500
       nbv-gym study wd --out studies/wd --report-only
     """
@@ -121,8 +122,10 @@ def study_empir3d(
 
     \b
       nbv-gym study empir3d --out studies/empir3d
-      nbv-gym study empir3d scan.ply --epsilon 0.05 --region 2 --out studies/my-scan
-      nbv-gym study empir3d --world pp1-trees --points 500000 --out studies/empir3d-trees
+      nbv-gym study empir3d scan.ply --epsilon 0.05 --region 2 \\
+          --out studies/my-scan
+      nbv-gym study empir3d --world pp1-trees --points 500000 \\
+          --out studies/empir3d-trees
     """
     from nbv_gym.metrics.empir3d import Empir3DConfig
     from nbv_gym.studies.empir3d_study import run_empir3d_study

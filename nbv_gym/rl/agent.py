@@ -7,6 +7,7 @@ space or observation layers do not fit ``Explore-v0``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -15,10 +16,12 @@ import numpy as np
 
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.env.observation import BASE_LAYERS, STATE_SIZE
+from nbv_gym.mapping.statistics import StatisticsConfig
 from nbv_gym.policies import PolicyError
 from nbv_gym.rl.modelfile import check_model_file
 
-N_GOALS = 3600
+#: The goals (actions) of the default grid G: its x, y cells (60 × 60).
+N_GOALS = math.prod(StatisticsConfig().grid().shape[:2])
 STATE_KEY = "state"
 
 

@@ -1,6 +1,7 @@
 """nbv-gym: a benchmark for autonomous lidar exploration and Next-Best-View research.
 
-``import nbv_gym`` registers the Gymnasium environment ``nbv_gym/Explore-v0``::
+``import nbv_gym`` registers the Gymnasium environments ``nbv_gym/Explore-v0`` (the paper's
+protocol) and ``nbv_gym/ExploreBudget-v0`` (a fixed budget of scans), see :mod:`nbv_gym.tasks`::
 
     import gymnasium, nbv_gym
     env = gymnasium.make("nbv_gym/Explore-v0", world="pp1-trees", noise=1)
@@ -12,7 +13,18 @@ import gymnasium
 
 __version__ = "0.1.0"
 
-ENV_ID = "nbv_gym/Explore-v0"
+from nbv_gym.tasks import BUDGET_ID, BUDGET_SCANS, EXPLORE_ID, EXPLORE_MAX_STEPS
 
-if ENV_ID not in gymnasium.registry:
-    gymnasium.register(id=ENV_ID, entry_point="nbv_gym.env.explore:ExploreEnv")
+ENV_ID = EXPLORE_ID
+
+for _id, _kwargs, _limit in (
+    (EXPLORE_ID, {}, EXPLORE_MAX_STEPS),
+    (BUDGET_ID, {"task": "budget"}, BUDGET_SCANS),
+):
+    if _id not in gymnasium.registry:
+        gymnasium.register(
+            id=_id,
+            entry_point="nbv_gym.env.explore:ExploreEnv",
+            kwargs=_kwargs,
+            max_episode_steps=_limit,
+        )

@@ -26,6 +26,14 @@ class RayScene:
             np.ascontiguousarray(faces, dtype=np.int32),
         )
         self.n_triangles = len(faces)
+        self._arrays = (vertices, faces)
+
+    def __getstate__(self) -> dict:
+        """Pickle the mesh, not the Embree scene (a C object): unpickling rebuilds it."""
+        return {"arrays": self._arrays}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(*state["arrays"])
 
     def cast(self, origins: FloatArray, directions: FloatArray) -> FloatArray:
         """(n,) float64 distance along each (n, 3) unit direction from each (n, 3) origin to the

@@ -21,6 +21,7 @@ from nbv_gym.mapping import (
 )
 from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary, QualityTracker
 from nbv_gym.pose import NOISE_LEVELS, Pose
+from nbv_gym.tasks import EXPLORE_MAX_STEPS
 from nbv_gym.worlds import World, load_world
 
 
@@ -32,21 +33,25 @@ class InvalidActionError(NbvGymError, ValueError):
 class EpisodeConfig:
     """When an episode ends and how steps are rewarded.
 
-    An episode terminates when the discovered fraction reaches ``discovered_target`` and is
-    truncated after ``max_steps`` steps or when no goal is valid. Reward = ΔQ −
-    ``path_penalty_per_m`` · path length of the step. The robot starts at ``start_xy_m``
-    heading ``start_yaw_rad``.
+    An episode terminates when the discovered fraction reaches ``discovered_target`` (never when
+    it is None: the budget task) and is truncated after ``max_steps`` steps or when no goal is
+    valid. Reward = ΔQ − ``path_penalty_per_m`` · path length of the step. The robot starts at
+    ``start_xy_m`` heading ``start_yaw_rad``.
     """
 
-    max_steps: int = 100
-    discovered_target: float = 0.70
+    max_steps: int = EXPLORE_MAX_STEPS
+    discovered_target: float | None = 0.70
     path_penalty_per_m: float = 0.0
     start_xy_m: tuple[float, float] = (0.0, 0.0)
     start_yaw_rad: float = 0.0
 
     def __post_init__(self) -> None:
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
-        check(0 < self.discovered_target <= 1, "discovered_target", "must be in (0, 1]")
+        check(
+            self.discovered_target is None or 0 < self.discovered_target <= 1,
+            "discovered_target",
+            "must be in (0, 1], or None for no termination",
+        )
         check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
 
 
@@ -110,6 +115,16 @@ class Simulator:
         self.trajectory: list[Pose] = []
         self.steps, self.path_length_m = 0, 0.0
         self.summary = self.quality.summary()
+
+    def set_world(self, world: World) -> None:
+        """Explore ``world`` from the next :meth:`reset` on (e.g. a world distribution's next
+        draw), keeping this simulator's grids and map arrays; the previous world's scene and
+        ground truth are released."""
+        self.world = world
+        self.lidar = Lidar.for_world(world, self.config.lidar, self.config.noise)
+        self.quality = self._quality_tracker(world)
+        self.summary = self.quality.summary()
+        self.state = None
 
     @property
     def n_goals(self) -> int:
@@ -201,8 +216,9 @@ class Simulator:
 
     def _end(self, discovered: float) -> tuple[bool, bool, str]:
         episode = self.config.episode
-        if discovered >= episode.discovered_target:
-            return True, False, f"discovered {discovered:.1%} ≥ {episode.discovered_target:.0%}"
+        target = episode.discovered_target
+        if target is not None and discovered >= target:
+            return True, False, f"discovered {discovered:.1%} ≥ {target:.0%}"
         if self.steps >= episode.max_steps:
             return False, True, f"reached max_steps = {episode.max_steps}"
         if not self.goal_mask().any():

@@ -1,9 +1,14 @@
-"""``nbv_gym/Explore-v0``: the Gymnasium environment around the :class:`~nbv_gym.simulator.Simulator`.
+"""``nbv_gym/Explore-v0`` and ``nbv_gym/ExploreBudget-v0`` (:mod:`nbv_gym.tasks`): the Gymnasium
+environment around the :class:`~nbv_gym.simulator.Simulator`.
 
 Action: ``Discrete(3600)``, a goal cell of the 60 × 60 grid (row-major); ``action_masks()`` and
-``info["action_mask"]`` give the valid goals, and an invalid goal raises
-:class:`~nbv_gym.simulator.InvalidActionError`. ``action_space.sample()`` draws a valid goal.
+``info["action_mask"]`` give the valid goals as (3600,) int8 (Gymnasium's mask type), and an
+invalid goal raises :class:`~nbv_gym.simulator.InvalidActionError` — or snaps to the nearest
+valid goal with ``invalid_action="snap"`` (:mod:`nbv_gym.env.actions`). ``action_space.sample()``
+draws a valid goal. Through wrappers: ``env.get_wrapper_attr("action_masks")()``.
 Observation: see :mod:`nbv_gym.env.observation`. Reward: ΔQ (minus the optional path penalty).
+The world is a benchmark name, a spec file or a distribution ``random:<kind>``
+(:mod:`nbv_gym.worlds.distribution`), which draws a world from its pool at every reset.
 """
 
 from __future__ import annotations
@@ -18,22 +23,35 @@ from gymnasium import spaces
 
 from nbv_gym.config import check, from_dict
 from nbv_gym.env import observation
+from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
 from nbv_gym.nbv import NbvConfig
 from nbv_gym.simulator import EpisodeConfig, Simulator, SimulatorConfig, StepOutcome
+from nbv_gym.tasks import task_episode
+from nbv_gym.worlds.distribution import POOL_SIZE, WorldDistribution, is_distribution
 
 
 @dataclass(frozen=True)
 class EnvConfig:
     """Configuration of ``Explore-v0``: the simulator, the optional observation layers (names in
-    :data:`nbv_gym.env.layers.OPTIONAL_LAYERS`, e.g. the NBV gain layers) and the NBV gain
-    prediction behind them."""
+    :data:`nbv_gym.env.layers.OPTIONAL_LAYERS`, e.g. the NBV gain layers), the NBV gain
+    prediction behind them, what an invalid goal does (``invalid_action``, one of
+    :data:`~nbv_gym.env.actions.INVALID_ACTIONS`) and the pool size of a world distribution
+    (``world_pool_size``, used when ``simulator.world`` is ``random:…``)."""
 
     simulator: SimulatorConfig = field(default_factory=SimulatorConfig)
     observation_layers: tuple[str, ...] = ()
     nbv: NbvConfig = field(default_factory=NbvConfig)
+    invalid_action: str = "raise"
+    world_pool_size: int = POOL_SIZE
 
     def __post_init__(self) -> None:
+        check(
+            self.invalid_action in INVALID_ACTIONS,
+            "invalid_action",
+            f"expected one of {', '.join(INVALID_ACTIONS)}, got {self.invalid_action!r}",
+        )
+        check(self.world_pool_size >= 1, "world_pool_size", "must be ≥ 1")
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
         check(
             not unknown,
@@ -77,9 +95,13 @@ class ExploreEnv(gymnasium.Env):
     Args:
         render_mode: None or "rgb_array".
         config: an :class:`EnvConfig` (or a dict of its fields).
-        world, noise, max_steps, observation_layers: shortcuts overriding the config's
-            ``simulator.world``, ``simulator.noise``, ``simulator.episode.max_steps`` and
-            ``observation_layers``.
+        task: ``"explore"`` (the paper's protocol) or ``"budget"`` (``max_steps`` scans, no
+            termination; :mod:`nbv_gym.tasks`); ``nbv_gym/ExploreBudget-v0`` sets it.
+        world, noise, max_steps, observation_layers, invalid_action, world_pool_size: shortcuts
+            overriding the config's ``simulator.world``, ``simulator.noise``,
+            ``simulator.episode.max_steps``, ``observation_layers``, ``invalid_action`` and
+            ``world_pool_size``. Through ``gymnasium.make`` the spec's ``max_episode_steps``
+            truncates too: change both to change the budget.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}
@@ -89,18 +111,24 @@ class ExploreEnv(gymnasium.Env):
         render_mode: str | None = None,
         config: EnvConfig | Mapping[str, Any] | None = None,
         *,
+        task: str = "explore",
         world: str | None = None,
         noise: int | None = None,
         max_steps: int | None = None,
         observation_layers: tuple[str, ...] | list[str] | None = None,
+        invalid_action: str | None = None,
+        world_pool_size: int | None = None,
     ):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise gymnasium.error.Error(
                 f"render_mode must be None or 'rgb_array', got {render_mode!r}"
             )
-        self.config = _resolve(config, world, noise, max_steps, observation_layers)
+        shortcuts = {"invalid_action": invalid_action, "world_pool_size": world_pool_size}
+        self.config = _resolve(config, task, world, noise, max_steps, observation_layers, shortcuts)
         self.render_mode = render_mode
-        self.sim = Simulator(self.config.simulator)
+        self.worlds, self._world_index = _distribution(self.config), 0
+        first = self.worlds.world(0) if self.worlds else None
+        self.sim = Simulator(self.config.simulator, world=first)
         self.optional = OptionalLayers(self.sim, self.config.observation_layers, self.config.nbv)
         mapping = self.config.simulator.mapping
         self.observer = observation.Observer(
@@ -118,6 +146,8 @@ class ExploreEnv(gymnasium.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        if self.worlds is not None:
+            self._draw_world()
         episode_seed = int(self.np_random.integers(2**63 - 1))
         self._last = self.sim.reset(episode_seed)
         self._start_mask = self.sim.goal_mask()
@@ -125,19 +155,23 @@ class ExploreEnv(gymnasium.Env):
         return self._observation(), self._info()
 
     def step(self, action):
-        outcome = self.sim.step(int(action) if np.ndim(action) == 0 else action)
+        goal, snapped = (int(action) if np.ndim(action) == 0 else action), False
+        if self.sim.state is not None:
+            goal, snapped = resolve_goal(goal, self.sim.goal_mask(), self.config.invalid_action)
+        outcome = self.sim.step(goal)
         self._last = outcome
         return (
             self._observation(),
             float(outcome.reward),
             outcome.terminated,
             outcome.truncated,
-            self._info(),
+            {**self._info(), "goal": goal, "snapped": snapped},
         )
 
     def action_masks(self) -> np.ndarray:
-        """(3600,) bool: the valid goals (sb3-contrib's MaskablePPO reads this)."""
-        return self.sim.goal_mask()
+        """(3600,) int8: 1 for the valid goals (sb3-contrib's MaskablePPO reads this; through
+        Gymnasium wrappers call ``env.get_wrapper_attr("action_masks")()``)."""
+        return self.sim.goal_mask().astype(np.int8)
 
     def render(self):
         if self.render_mode == "rgb_array":
@@ -145,6 +179,13 @@ class ExploreEnv(gymnasium.Env):
 
             return render_rgb(self.sim)
         return None
+
+    def _draw_world(self) -> None:
+        """Switch to a world drawn from the distribution's pool (kept if drawn again)."""
+        index = self.worlds.draw(self.np_random)
+        if index != self._world_index:
+            self.sim.set_world(self.worlds.world(index))
+            self._world_index = index
 
     def _current_mask(self) -> np.ndarray | None:
         """Valid goals, narrowed to those also valid at the episode's start if any are."""
@@ -165,7 +206,10 @@ class ExploreEnv(gymnasium.Env):
         outcome, sim = self._last, self.sim
         quality = outcome.quality
         return {
-            "action_mask": sim.goal_mask(),
+            "action_mask": sim.goal_mask().astype(np.int8),
+            "world": sim.world.name,
+            "goal": -1,
+            "snapped": False,
             "discovered": outcome.discovered,
             "q": quality.q,
             "q_paper": quality.q_paper,
@@ -187,8 +231,8 @@ def _pose_tuple(pose) -> tuple[float, float, float, float]:
     return pose.x, pose.y, pose.z, pose.yaw
 
 
-def _resolve(config, world, noise, max_steps, observation_layers) -> EnvConfig:
-    """The :class:`EnvConfig` of ``config`` with the keyword shortcuts applied."""
+def _resolve(config, task, world, noise, max_steps, observation_layers, shortcuts) -> EnvConfig:
+    """The :class:`EnvConfig` of ``config`` for ``task`` with the keyword shortcuts applied."""
     if config is None:
         config = EnvConfig()
     elif isinstance(config, Mapping):
@@ -198,10 +242,21 @@ def _resolve(config, world, noise, max_steps, observation_layers) -> EnvConfig:
         simulator = replace(simulator, world=str(world))
     if noise is not None:
         simulator = replace(simulator, noise=noise)
+    episode = task_episode(task, simulator.episode, max_steps)
     if max_steps is not None:
-        simulator = replace(simulator, episode=replace(simulator.episode, max_steps=max_steps))
+        episode = replace(episode, max_steps=max_steps)
+    simulator = replace(simulator, episode=episode)
     layers = config.observation_layers if observation_layers is None else tuple(observation_layers)
-    return EnvConfig(simulator, layers, config.nbv)
+    extra = {k: v for k, v in shortcuts.items() if v is not None}
+    return replace(config, simulator=simulator, observation_layers=layers, **extra)
+
+
+def _distribution(config: EnvConfig) -> WorldDistribution | None:
+    """The world distribution of ``config`` (None for a single world)."""
+    world = config.simulator.world
+    if not is_distribution(world):
+        return None
+    return WorldDistribution.from_name(world, config.world_pool_size)
 
 
 __all__ = ["EnvConfig", "EpisodeConfig", "ExploreEnv", "GoalSpace"]

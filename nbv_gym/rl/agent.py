@@ -29,7 +29,7 @@ class SB3Policy:
     """A saved SB3 model (MaskablePPO, PPO or A2C) acting deterministically.
 
     MaskablePPO acts among ``info["action_mask"]``; the other algorithms' goal is replaced by the
-    nearest valid goal when invalid, as during their training.
+    nearest valid goal when invalid, as during their training (``invalid_action="snap"``).
     """
 
     def __init__(self, path: str | Path, device: str = "cpu"):
@@ -46,7 +46,7 @@ class SB3Policy:
 
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
         """The model's most probable valid goal for ``observation``."""
-        from nbv_gym.rl.envs import nearest_valid_goal
+        from nbv_gym.env.actions import nearest_valid_goal
 
         mask = np.asarray(info["action_mask"], bool)
         missing = [k for k in self.model.observation_space.spaces if k not in observation]

@@ -12,14 +12,17 @@ from typing import Any, Literal
 
 from nbv_gym.config import check, from_dict, read_toml
 from nbv_gym.env.layers import OPTIONAL_LAYERS
+from nbv_gym.tasks import BUDGET_SCANS, TASKS
+from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
 
 #: Algorithms ``nbv-gym train`` supports. MaskablePPO reads the action mask; PPO and A2C do not,
-#: so their environments replace an invalid goal by the nearest valid one (:mod:`nbv_gym.rl.envs`).
+#: so their environments snap an invalid goal to the nearest valid one (``invalid_action="snap"``,
+#: :mod:`nbv_gym.env.actions`).
 ALGORITHMS = ("MaskablePPO", "PPO", "A2C")
 
-TRAIN_WORLDS = tuple(
-    f"pp{i}-{a}" for i in (1, 2) for a in ("cuboids", "crosses", "helicoids", "trees")
-)
+#: Training draws a fresh world of every asset type from a pool disjoint from the benchmark.
+TRAIN_WORLDS = ("random:mixed",)
+#: Evaluation on held-out benchmark worlds.
 EVAL_WORLDS = tuple(f"pp3-{a}" for a in ("cuboids", "crosses", "helicoids", "trees"))
 
 
@@ -60,9 +63,14 @@ class TrainConfig:
     - ``total_timesteps``: environment steps over all parallel environments.
     - ``n_envs``: parallel environments (``SubprocVecEnv`` when > 1); each cycles over its share
       of ``train_worlds``, one world per episode.
-    - ``train_worlds`` / ``eval_worlds``: world names or spec files; evaluation cycles over
-      ``eval_worlds`` with ``eval_episodes`` episodes (default: one per world).
-    - ``noise``, ``max_steps``: the environment's localisation noise level and episode length.
+    - ``train_worlds`` / ``eval_worlds``: world names or spec files, or one world distribution
+      (``random:mixed``, ``random:trees``, …: a world drawn from a pool of ``world_pool_size``
+      at every reset); evaluation cycles over ``eval_worlds`` with ``eval_episodes`` episodes
+      (default: one per world).
+    - ``task``: ``"budget"`` (``max_steps`` scans, no termination: the agent cannot profit from
+      delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.tasks`.
+    - ``noise``, ``max_steps``: the environment's localisation noise level and episode length
+      (the budget of the budget task).
     - ``observation_layers``: optional layers (e.g. ``gain_nobs``) the agent observes besides the
       base layers; they are stored in the model and checked when it is loaded as a policy.
     - ``reward_scale``: the learner sees ``reward_scale · ΔQ`` (ΔQ is ~1e-3 per step, too small
@@ -80,8 +88,10 @@ class TrainConfig:
     n_envs: int = 2
     train_worlds: tuple[str, ...] = TRAIN_WORLDS
     eval_worlds: tuple[str, ...] = EVAL_WORLDS
+    world_pool_size: int = POOL_SIZE
+    task: str = "budget"
     noise: int = 1
-    max_steps: int = 100
+    max_steps: int = BUDGET_SCANS
     observation_layers: tuple[str, ...] = ()
     reward_scale: float = 100.0
     network: Literal["goal-map", "dense"] = "goal-map"
@@ -102,6 +112,15 @@ class TrainConfig:
         check(self.total_timesteps >= 1, "total_timesteps", "must be ≥ 1")
         check(self.n_envs >= 1, "n_envs", f"must be ≥ 1, got {self.n_envs}")
         check(len(self.train_worlds) >= 1, "train_worlds", "name at least one world")
+        for key in ("train_worlds", "eval_worlds"):
+            worlds = getattr(self, key)
+            check(
+                len(worlds) == 1 or not any(map(is_distribution, worlds)),
+                key,
+                f"a world distribution (random:…) must be the only entry, got {list(worlds)}",
+            )
+        check(self.world_pool_size >= 1, "world_pool_size", "must be ≥ 1")
+        check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
         check(self.noise in (0, 1, 2), "noise", f"expected 0, 1 or 2, got {self.noise!r}")
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))

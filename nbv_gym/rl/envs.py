@@ -1,4 +1,5 @@
-"""Training environments: ``Explore-v0`` cycling over a list of worlds, one world per episode.
+"""Training environments: ``Explore-v0`` cycling over a list of worlds, one world per episode, or
+drawing from a world distribution (``random:…``) at every reset.
 
 Workers of a ``SubprocVecEnv`` build these by name (:func:`make_world_cycle`), so they import
 nbv-gym themselves; Embree's thread pool does not survive ``fork``, hence ``forkserver``.
@@ -12,14 +13,21 @@ import gymnasium
 import numpy as np
 
 from nbv_gym.env.explore import ExploreEnv
+from nbv_gym.tasks import EXPLORE_MAX_STEPS
+from nbv_gym.worlds import load_world
+from nbv_gym.worlds.distribution import POOL_SIZE
 
 
 class WorldCycleEnv(gymnasium.Env):
-    """``Explore-v0`` over ``worlds`` in turn: reset ``k`` explores ``worlds[k % len(worlds)]``.
+    """``Explore-v0`` (or the ``task``'s environment) over ``worlds`` in turn: reset ``k`` explores
+    ``worlds[k % len(worlds)]``; a single world distribution (``("random:mixed",)``) draws a world
+    at every reset instead.
 
-    Rewards are multiplied by ``reward_scale``. With ``snap_invalid`` an invalid goal is replaced
-    by the nearest valid one (for learners that do not read ``action_masks()``). ``info["world"]``
-    names the episode's world. Each world's environment is built on first use and kept.
+    Rewards are multiplied by ``reward_scale``. ``invalid_action`` is the environment's option
+    (``"snap"`` for learners that do not read ``action_masks()``). One environment serves every
+    world: switching worlds swaps the scene and the ground truth and keeps the simulator's
+    arrays. ``info["world"]`` names the episode's world; ``world_pool_size`` is the
+    distribution's pool size.
     """
 
     metadata = {"render_modes": []}
@@ -28,22 +36,25 @@ class WorldCycleEnv(gymnasium.Env):
         self,
         worlds: tuple[str, ...] | list[str],
         noise: int = 1,
-        max_steps: int = 100,
+        max_steps: int = EXPLORE_MAX_STEPS,
         observation_layers: tuple[str, ...] | list[str] = (),
         reward_scale: float = 1.0,
-        snap_invalid: bool = False,
+        invalid_action: str = "raise",
+        task: str = "explore",
+        world_pool_size: int = POOL_SIZE,
     ):
         self.worlds = tuple(worlds)
         self.reward_scale = reward_scale
-        self.snap_invalid = snap_invalid
-        self._kwargs = {
-            "noise": noise,
-            "max_steps": max_steps,
-            "observation_layers": tuple(observation_layers),
-        }
-        self._envs: dict[str, ExploreEnv] = {}
-        self._episodes = 0
-        self.env = self._env(self.worlds[0])
+        self.env = ExploreEnv(
+            task=task,
+            world=self.worlds[0],
+            noise=noise,
+            max_steps=max_steps,
+            observation_layers=tuple(observation_layers),
+            invalid_action=invalid_action,
+            world_pool_size=world_pool_size,
+        )
+        self._world, self._episodes = self.worlds[0], 0
         self.action_space = self.env.action_space
         self.observation_space = self.env.observation_space
 
@@ -51,38 +62,18 @@ class WorldCycleEnv(gymnasium.Env):
         super().reset(seed=seed)
         world = self.worlds[self._episodes % len(self.worlds)]
         self._episodes += 1
-        self.env = self._env(world)
-        observation, info = self.env.reset(seed=int(self.np_random.integers(2**31 - 1)))
-        return observation, {**info, "world": world}
+        if world != self._world:
+            self.env.sim.set_world(load_world(world))
+            self._world = world
+        return self.env.reset(seed=int(self.np_random.integers(2**31 - 1)))
 
     def step(self, action):
-        goal = int(action)
-        if self.snap_invalid:
-            goal = nearest_valid_goal(goal, self.env.action_masks())
-        observation, reward, terminated, truncated, info = self.env.step(goal)
-        info = {**info, "world": self.env.config.simulator.world}
+        observation, reward, terminated, truncated, info = self.env.step(action)
         return observation, self.reward_scale * reward, terminated, truncated, info
 
     def action_masks(self) -> np.ndarray:
-        """(n_goals,) bool: the valid goals of the current episode."""
+        """(n_goals,) int8: the valid goals of the current episode."""
         return self.env.action_masks()
-
-    def _env(self, world: str) -> ExploreEnv:
-        if world not in self._envs:
-            self._envs[world] = ExploreEnv(world=world, **self._kwargs)
-        return self._envs[world]
-
-
-def nearest_valid_goal(goal: int, mask: np.ndarray) -> int:
-    """``goal`` if valid, else the valid goal nearest to it on the square goal grid."""
-    mask = np.asarray(mask, bool).ravel()
-    if mask[goal] or not mask.any():
-        return int(goal)
-    side = int(np.sqrt(mask.size))
-    valid = np.flatnonzero(mask)
-    rows, cols = np.divmod(valid, side)
-    row, col = divmod(int(goal), side)
-    return int(valid[np.argmin((rows - row) ** 2 + (cols - col) ** 2)])
 
 
 def make_world_cycle(monitor: bool = True, **kwargs: Any) -> gymnasium.Env:

@@ -153,11 +153,13 @@ def _env_factory(config: TrainConfig, worlds: tuple[str, ...]):
 
     return make_world_cycle(
         worlds=worlds,
+        task=config.task,
         noise=config.noise,
         max_steps=config.max_steps,
         observation_layers=config.observation_layers,
         reward_scale=config.reward_scale,
-        snap_invalid=config.algorithm != "MaskablePPO",
+        invalid_action="raise" if config.algorithm == "MaskablePPO" else "snap",
+        world_pool_size=config.world_pool_size,
     )
 
 

@@ -24,6 +24,7 @@ from typing import Any
 from nbv_gym.config import check, from_dict, read_toml, to_dict
 from nbv_gym.errors import ConfigError, UnknownNameError
 from nbv_gym.policies import POLICIES
+from nbv_gym.tasks import BUDGET_SCANS, check_task, task_episode
 
 #: The seven policies of the paper, in its order (the registry's order).
 PAPER_POLICIES = tuple(POLICIES)
@@ -40,7 +41,8 @@ class SweepConfig:
     config file); ``policies`` (required): registered policy names, ``module:Class`` or a
     trained agent (anything :func:`nbv_gym.policies.load_policy` takes); ``noise``:
     localisation-noise levels (0, 1, 2); ``repeats``: runs per combination; ``seed``: base seed
-    of every run seed; ``max_steps``: the episode truncation; ``retries``: how many times a
+    of every run seed; ``max_steps``: the episode truncation of the explore task; ``task``: ``"explore"`` (the
+    paper's protocol) or ``"budget"`` (``budget_scans`` scans, no termination; :mod:`nbv_gym.tasks`); ``retries``: how many times a
     failed run is retried within one invocation; ``run_timeout_s``: wall-clock limit of one run
     (world building included), after which its worker is stopped and the run recorded as failed
     ("timed out after N s"); ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for
@@ -55,6 +57,8 @@ class SweepConfig:
     seed: int = 0
     max_steps: int = 100
     retries: int = 2
+    task: str = "explore"
+    budget_scans: int = BUDGET_SCANS
     run_timeout_s: float = 1800.0
     env: dict[str, Any] = field(default_factory=dict)
 
@@ -78,6 +82,8 @@ class SweepConfig:
         check(self.seed >= 0, "seed", f"must be ≥ 0, got {self.seed}")
         check(self.max_steps >= 1, "max_steps", f"must be ≥ 1, got {self.max_steps}")
         check(self.retries >= 0, "retries", f"must be ≥ 0, got {self.retries}")
+        check_task(self.task)
+        check(self.budget_scans >= 1, "budget_scans", f"must be ≥ 1, got {self.budget_scans}")
         check(
             0 < self.run_timeout_s < math.inf,
             "run_timeout_s",
@@ -98,7 +104,9 @@ class SweepConfig:
                 )
         run = {"simulator": {"world": world, "noise": noise, "episode": {}}}
         run["simulator"]["episode"]["max_steps"] = self.max_steps
-        return from_dict(EnvConfig, _merge(self.env, run), "env")
+        config = from_dict(EnvConfig, _merge(self.env, run), "env")
+        episode = task_episode(self.task, config.simulator.episode, self.budget_scans)
+        return replace(config, simulator=replace(config.simulator, episode=episode))
 
     def runs(self) -> list[RunSpec]:
         """All runs, repeat by repeat (so a partial sweep covers every policy evenly)."""

@@ -21,29 +21,8 @@ from nbv_gym.errors import MissingExtraError  # noqa: E402
 from nbv_gym.policies import PolicyError, load_policy, required_layers  # noqa: E402
 from nbv_gym.rl.agent import SB3Policy, check_spaces  # noqa: E402
 from nbv_gym.rl.config import LearningConfig, TrainConfig  # noqa: E402
-from nbv_gym.rl.envs import nearest_valid_goal  # noqa: E402
 from nbv_gym.rl.train import require_rl, train  # noqa: E402
 from nbv_gym.simulator import EpisodeConfig, SimulatorConfig  # noqa: E402
-
-TINY_WORLD = """
-name = "tiny-cuboids"
-description = "10 cuboids for the RL tests"
-
-[placement]
-seed = 7
-n_assets = 10
-cluster_radius_m = 30.0
-
-[assets]
-mix = { cuboids = 1.0 }
-"""
-
-
-@pytest.fixture(scope="module")
-def world(tmp_path_factory):
-    path = tmp_path_factory.mktemp("worlds") / "tiny.toml"
-    path.write_text(TINY_WORLD)
-    return str(path)
 
 
 @pytest.fixture(scope="module")
@@ -181,17 +160,6 @@ def test_missing_rl_extra_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "sb3_contrib", None)
     with pytest.raises(MissingExtraError, match=r"nbv-gym\[rl\]"):
         require_rl()
-
-
-@pytest.mark.parametrize(
-    "goal, valid, expected",
-    [(5, [5, 100], 5), (0, [61, 3599], 61), (3599, [0, 3540], 3540)],
-    ids=["valid", "diagonal-neighbour", "same-column"],
-)
-def test_nearest_valid_goal(goal, valid, expected):
-    mask = np.zeros(3600, bool)
-    mask[valid] = True
-    assert nearest_valid_goal(goal, mask) == expected
 
 
 @pytest.mark.slow

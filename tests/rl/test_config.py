@@ -8,6 +8,7 @@ import pytest
 
 from nbv_gym.errors import ConfigError
 from nbv_gym.rl.config import EVAL_WORLDS, TRAIN_WORLDS, TrainConfig, load_train_config
+from nbv_gym.worlds import benchmark_names
 
 EXAMPLE = Path(__file__).parents[2] / "experiments" / "ppo.toml"
 
@@ -16,9 +17,10 @@ def test_example_config_is_the_default_config():
     assert load_train_config(EXAMPLE) == TrainConfig()
 
 
-def test_default_worlds_train_on_pp1_pp2_and_evaluate_on_pp3():
-    assert {w[:3] for w in TRAIN_WORLDS} == {"pp1", "pp2"} and len(TRAIN_WORLDS) == 8
-    assert {w[:3] for w in EVAL_WORLDS} == {"pp3"} and len(EVAL_WORLDS) == 4
+def test_default_config_trains_on_a_distribution_and_evaluates_on_benchmark_worlds():
+    assert TRAIN_WORLDS == ("random:mixed",)
+    assert set(EVAL_WORLDS) < set(benchmark_names()) and len(EVAL_WORLDS) == 4
+    assert TrainConfig().task == "budget"
 
 
 def test_overrides_replace_file_values(tmp_path):
@@ -37,8 +39,11 @@ def test_overrides_replace_file_values(tmp_path):
         ('observation_layers = ["gain_nob"]\n', r"observation_layers: unknown layer\(s\)"),
         ("[learning]\ngamma = 1.5\n", r"learning: gamma: must be in \(0, 1\]"),
         ("n_envs = 0\n", "n_envs: must be ≥ 1"),
+        ('task = "race"\n', "task: expected one of explore, budget"),
+        ('train_worlds = ["random:trees", "pp1-trees"]\n', "train_worlds: a world distribution"),
     ],
-    ids=["unknown-key", "unknown-nested-key", "algorithm", "layer", "gamma", "n_envs"],
+    ids=["unknown-key", "unknown-nested-key", "algorithm", "layer", "gamma", "n_envs", "task",
+         "distribution-with-worlds"],
 )
 def test_bad_values_are_refused_with_their_key(tmp_path, text, match):
     path = tmp_path / "bad.toml"

@@ -1,0 +1,36 @@
+"""A sweep selects the task: the budget task runs ``budget_scans`` scans without termination."""
+
+from __future__ import annotations
+
+import pytest
+
+from nbv_gym.errors import ConfigError
+from nbv_gym.sweep.config import SweepConfig
+from nbv_gym.tasks import BUDGET_SCANS
+
+BASE = {"worlds": ("pp1-cuboids",), "policies": ("closest-frontier",), "noise": (1,)}
+
+
+def test_explore_is_the_default_task():
+    episode = SweepConfig(**BASE, max_steps=40).env_config("pp1-cuboids", 1).simulator.episode
+    assert (episode.max_steps, episode.discovered_target) == (40, 0.70)
+
+
+def test_budget_task_runs_budget_scans_without_termination():
+    config = SweepConfig(**BASE, task="budget")
+    assert config.budget_scans == BUDGET_SCANS
+    episode = SweepConfig(**BASE, task="budget", budget_scans=7).env_config("pp1-cuboids", 1)
+    assert episode.simulator.episode.max_steps == 7
+    assert episode.simulator.episode.discovered_target is None
+    assert config.results_fingerprint()["task"] == "budget"  # no resuming across tasks
+
+
+@pytest.mark.parametrize(
+    "values, match",
+    [({"task": "race"}, "task: expected one of explore, budget"),
+     ({"budget_scans": 0}, "budget_scans: must be ≥ 1")],
+    ids=["task", "budget_scans"],
+)  # fmt: skip
+def test_bad_task_settings_are_refused(values, match):
+    with pytest.raises(ConfigError, match=match):
+        SweepConfig(**BASE, **values)

@@ -1,0 +1,126 @@
+"""World distributions ``random:…``: seeded draws, seeds disjoint from the benchmark, a bounded
+pool in the cache, one simulator reused across worlds."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from nbv_gym.env import ExploreEnv
+from nbv_gym.errors import ConfigError, UnknownNameError
+from nbv_gym.worlds import ASSET_TYPES, benchmark_names, cache_dir, load_spec
+from nbv_gym.worlds.distribution import (
+    FIRST_SEED,
+    WorldDistribution,
+    distribution_names,
+    is_distribution,
+)
+
+POOL = 4
+
+
+def first_scan(env: ExploreEnv, seed: int) -> tuple[str, str]:
+    """The world drawn by ``reset(seed)`` and a digest of the first observation."""
+    observation, info = env.reset(seed=seed)
+    digest = np.concatenate([observation[k] for k in sorted(observation)]).tobytes().hex()
+    return info["world"], digest
+
+
+def test_placement_seeds_are_disjoint_from_the_benchmark_worlds():
+    benchmark = {load_spec(name).placement.seed for name in benchmark_names()}
+    assert max(benchmark) < FIRST_SEED
+    pool = WorldDistribution("mixed", pool_size=1000)
+    seeds = {pool.spec(k).placement.seed for k in range(pool.pool_size)}
+    assert len(seeds) == 1000 and not seeds & benchmark
+
+
+def test_names_and_asset_mixes():
+    assert distribution_names() == [f"random:{k}" for k in (*ASSET_TYPES, "mixed")]
+    assert is_distribution("random:trees") and not is_distribution("pp1-trees")
+    assert WorldDistribution("trees").spec(3).assets.mix == {"trees": 1.0}
+    assert set(WorldDistribution("mixed").spec(0).assets.mix) == set(ASSET_TYPES)
+    mixed = WorldDistribution("mixed", POOL).world(0)
+    assert len(set(mixed.layout.kind.tolist())) == len(ASSET_TYPES)
+
+
+def test_unknown_distribution_suggests_the_near_miss():
+    with pytest.raises(UnknownNameError, match="Did you mean 'random:trees'"):
+        ExploreEnv(world="random:tree")
+    with pytest.raises(ConfigError, match="world_pool_size: must be ≥ 1"):
+        ExploreEnv(world="random:cuboids", world_pool_size=0)
+
+
+def test_resets_draw_seeded_worlds_from_a_bounded_pool():
+    env = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2)
+    drawn = {seed: first_scan(env, seed) for seed in range(8)}
+    worlds = {world for world, _ in drawn.values()}
+    assert len(worlds) > 1 and worlds <= {f"random-cuboids-{k:04d}" for k in range(POOL)}
+    assert first_scan(env, 3) == drawn[3]  # same seed, same world and episode
+    different = [s for s in drawn if drawn[s][0] != drawn[0][0]]
+    assert different and drawn[different[0]][1] != drawn[0][1]
+    cached = list((cache_dir() / "worlds").glob("random-cuboids-*.npz"))
+    assert len(cached) <= POOL
+
+
+def test_same_seed_draws_the_same_world_in_another_process():
+    code = (
+        "import sys; sys.path.insert(0, 'tests/worlds');"
+        "from test_distribution import first_scan, POOL; from nbv_gym.env import ExploreEnv;"
+        "env = ExploreEnv(world='random:cuboids', world_pool_size=POOL, max_steps=2);"
+        "print(*first_scan(env, 5))"
+    )
+    there = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split()
+    env = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2)
+    assert tuple(there) == first_scan(env, 5)
+
+
+def test_a_switched_simulator_equals_a_fresh_one():
+    """After several world switches an episode is the one a new environment runs."""
+    used = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2)
+    for seed in range(4):
+        used.reset(seed=seed)
+    simulator = used.sim
+    fresh = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2)
+    assert first_scan(used, 6) == first_scan(fresh, 6)
+    assert used.sim is simulator  # one simulator for every world
+
+
+RSS_CODE = """
+import numpy as np
+from nbv_gym.env import ExploreEnv
+
+def rss_mib():
+    for line in open("/proc/self/status"):
+        if line.startswith("VmRSS"):
+            return int(line.split()[1]) / 1024
+
+env = ExploreEnv(world="random:cuboids", world_pool_size=8, max_steps=3)
+worlds, seed, rss = [], 0, []
+while len(set(worlds)) < 5:
+    observation, info = env.reset(seed=seed)
+    seed += 1
+    if info["world"] in worlds:
+        continue
+    worlds.append(info["world"])
+    for _ in range(2):
+        observation, *_, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
+    rss.append(rss_mib())
+print(rss[0], rss[-1])
+"""
+
+
+def test_memory_stays_flat_across_worlds():
+    """One environment over five worlds grows by less than one world's scene and ground truth
+    (the old world-cycling training env kept a full environment per world)."""
+    first, last = map(
+        float,
+        subprocess.run(
+            [sys.executable, "-c", RSS_CODE], capture_output=True, text=True, check=True
+        ).stdout.split(),
+    )
+    assert last - first < 64, f"RSS grew from {first:.0f} to {last:.0f} MiB over 5 worlds"

@@ -136,3 +136,19 @@ def test_delta_table_averages_the_medians_of_a_world_type():
 )
 def test_table2_grades(d2, d3, verdict):
     assert _robust_grade(d2, d3, 0.0121, 0.0393) == verdict
+
+
+def test_ideal_study_is_seeded_and_scores_ideal_far_below_random():
+    from nbv_gym.studies.wd import RECONSTRUCTIONS, ground_truth, ideal_study
+    from nbv_gym.worlds import load_world
+
+    world = load_world("pp1-cuboids")
+    truth = ground_truth(world, 0.1)
+    first = ideal_study(world, truth, 6, seed=3)
+    again = ideal_study(world, truth, 6, seed=3)
+    np.testing.assert_array_equal(first.index, again.index)
+    for name in RECONSTRUCTIONS:
+        np.testing.assert_array_equal(first.wd[name], again.wd[name])
+    assert first.wd["b3"].max() < first.wd["random"].min()
+    assert first.wd_star == pytest.approx(first.wd["random"].mean())
+    assert (first.cov["b1"] == 1.0).all()  # every ground-truth voxel kept at p > 0.8

@@ -20,7 +20,7 @@ from nbv_gym.errors import NbvGymError
 
 settings.register_profile(
     "fuzz",
-    max_examples=40,
+    max_examples=30,
     derandomize=True,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow],

@@ -16,6 +16,8 @@ import numpy as np
 
 from nbv_gym.sweep.config import PAPER_POLICIES
 from nbv_gym.sweep.effort import bands, curves_at, effort_section
+from nbv_gym.sweep.formatting import asset_order, markdown_table, policy_colours
+from nbv_gym.sweep.formatting import figure as _figure
 from nbv_gym.sweep.html import save_figure, write_html
 from nbv_gym.sweep.stats import (
     Interval,
@@ -601,33 +603,6 @@ def _table2_lines(ok, data: Results, out: Path) -> list[str]:
 # -- formatting ------------------------------------------------------------------------------------
 
 
-def markdown_table(header: list[str], rows: list[list[Any]]) -> str:
-    """A GitHub-flavoured Markdown table."""
-    lines = ["| " + " | ".join(str(h) for h in header) + " |"]
-    lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in rows]
-    return "\n".join(lines)
-
-
-def asset_order(assets) -> list[str]:
-    """Asset types present, easiest first (cuboids, crosses, helicoids, trees), then others."""
-    from nbv_gym.worlds import ASSET_TYPES
-
-    present = list(dict.fromkeys(str(a) for a in assets))
-    return [a for a in ASSET_TYPES if a in present] + sorted(
-        a for a in present if a not in ASSET_TYPES
-    )
-
-
-def policy_colours(policies: list[str]) -> dict[str, Any]:
-    """A fixed colour per policy (the paper's seven first)."""
-    import matplotlib
-
-    palette = matplotlib.colormaps["tab10"].colors
-    ordered = [*PAPER_POLICIES, *(p for p in policies if p not in PAPER_POLICIES)]
-    return {p: palette[ordered.index(p) % len(palette)] for p in policies}
-
-
 def _ci(interval: Interval, signed: bool = False) -> str:
     sign = "+" if signed else ""
     if not np.isfinite(interval.mean):
@@ -641,10 +616,3 @@ def _p(value: float) -> str:
 
 def _share(value: float) -> str:
     return "—" if not np.isfinite(value) else f"{value:.2f}"
-
-
-def _figure(width_in: float, height_in: float):
-    """A matplotlib Figure drawn off-screen (no pyplot state, any backend)."""
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width_in, height_in))

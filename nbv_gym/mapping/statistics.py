@@ -27,7 +27,6 @@ from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.traversal import observe_scan
 
 _FORMAT = "nbv_gym.ViewpointStatistics/1"
-_ARRAYS = ("n_obs", "r_min_raw", "sector_mask", "sum_u")
 #: The grid-shaped arrays of a saved file: name, numpy dtype kinds, trailing shape.
 _SAVED_ARRAYS = (("n_obs", "iu", ()), ("r_min_raw", "f", ()), ("sector_mask", "u", ()),
                  ("sum_u", "f", (3,)))  # fmt: skip

@@ -90,11 +90,11 @@ def _tls_environment(certificates: dict[str, Path]) -> dict[str, str]:
 
 
 def _dask(*arguments: str, log: Path) -> subprocess.Popen:
-    """A `dask` command in its own process group (so all its processes can be stopped)."""
+    """``dask ARGUMENTS`` in its own process group (so all its processes can be stopped)."""
     environment = {**os.environ, **WORKER_ENVIRONMENT}
     with open(log, "wb") as out:
         return subprocess.Popen(
-            [str(Path(sys.executable).with_name("dask")), *arguments],
+            [sys.executable, "-m", "dask", *arguments],
             stdout=out,
             stderr=subprocess.STDOUT,
             env=environment,

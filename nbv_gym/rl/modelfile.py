@@ -120,7 +120,7 @@ def _action_space(entry: Any, path: Path) -> Any:
 
     entry = _readable({"action_space": entry}, "action_space", path)
     n = entry.get("n")
-    if entry[":type:"] == _DISCRETE and isinstance(n, str) and n.isdigit() and len(n) < 10:
+    if entry[":type:"] == _DISCRETE and isinstance(n, str) and n.isdecimal() and len(n) < 10:
         return spaces.Discrete(int(n))
     return entry[":type:"]
 
@@ -138,7 +138,7 @@ def _observation_space(entry: Any, path: Path) -> Any:
 
 
 def _box(kind: str, body: str):
-    """An unbounded float32 Box of the shape a saved space's repr ends with."""
+    """A float32 Box (its bounds are not kept) of the shape a saved space's repr ends with."""
     from gymnasium import spaces
 
     shapes = re.findall(r"\(([\d, ]*)\)", body) if kind == "Box" else []

@@ -38,7 +38,7 @@ def test_map_mode_writes_csv_summary_and_heat_map(perfect_map, tmp_path):
          "--out", str(out), "--json"],
     )  # fmt: skip
     assert result.exit_code == 0, result.output
-    summary = json.loads(result.output)
+    summary = json.loads(result.stdout)  # progress goes to stderr
     assert summary["q"] == 1.0 and summary["cov_p0.7_d0.15"] == 1.0 and summary["n_occ"] == 2
     assert summary["wd_occ_max"] < 1.0
     assert json.loads((out / "summary.json").read_text())["q"] == 1.0

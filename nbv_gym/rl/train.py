@@ -216,9 +216,15 @@ def _create(config: TrainConfig, envs, verbose: int):
 def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbose: int):
     if resume is None:
         return _create(config, envs, verbose)
-    from nbv_gym.rl.modelfile import check_model_file
+    from nbv_gym.rl.modelfile import check_model_file, describe_model
 
     check_model_file(Path(resume))
+    saved = describe_model(Path(resume)).algorithm  # read before SB3 unpickles the file
+    if saved != config.algorithm:
+        raise ConfigError(
+            f"Cannot resume {config.algorithm} from {str(resume)!r}: {saved} saved it. Set "
+            f'algorithm = "{saved}" in the config, or start a new run.'
+        )
     cls = algorithm_class(config.algorithm)
     try:
         return cls.load(resume, env=envs, device=config.device, verbose=verbose)

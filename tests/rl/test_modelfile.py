@@ -16,9 +16,12 @@ pytest.importorskip("sb3_contrib")
 from gymnasium import spaces  # noqa: E402
 
 from nbv_gym.env.observation import BASE_LAYERS, STATE_SIZE  # noqa: E402
+from nbv_gym.errors import ConfigError  # noqa: E402
 from nbv_gym.policies import PolicyError, load_policy  # noqa: E402
 from nbv_gym.rl import modelfile  # noqa: E402
+from nbv_gym.rl.config import TrainConfig  # noqa: E402
 from nbv_gym.rl.modelfile import describe_model  # noqa: E402
+from nbv_gym.rl.train import _load_or_create  # noqa: E402
 
 
 class _ExploreSpacesEnv(gymnasium.Env):
@@ -129,3 +132,9 @@ def test_zips_that_are_not_models_are_refused(tmp_path, monkeypatch, masked_mode
     monkeypatch.setattr(modelfile, "MAX_DATA_BYTES", 100)
     with pytest.raises(PolicyError, match=r"its data member has \d+ bytes"):
         describe_model(masked_model)
+
+
+def test_resuming_from_another_algorithm_is_refused_before_loading(tmp_path):
+    path = _save("PPO", tmp_path / "ppo.zip")
+    with pytest.raises(ConfigError, match=r"Cannot resume MaskablePPO from .*ppo\.zip': PPO saved"):
+        _load_or_create(TrainConfig(algorithm="MaskablePPO"), None, path, verbose=0)

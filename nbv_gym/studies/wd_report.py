@@ -258,7 +258,7 @@ def _share_verdicts(shares) -> list[Verdict]:
     )
     rows.append(_less_sensitive(shares, cov))
     rows.append(_five_times(unstructured if len(unstructured) else shares, cov))
-    return rows
+    return [row for row in rows if row is not None]
 
 
 def _shares_text(rows, cov: str) -> str:
@@ -279,24 +279,28 @@ def _noise_drops(shares, column: str) -> dict[tuple[str, float], float]:
     return drops
 
 
-def _noise_sensitivity(shares, cov: str) -> Verdict:
+def _noise_sensitivity(shares, cov: str) -> Verdict | None:
     structured = shares[shares["asset"] == "cuboids"]
     drops = _noise_drops(structured if len(structured) else shares, cov)
+    if not drops:
+        return None  # one noise level: nothing to compare
     held = [d > 0 for d in drops.values()]
     verdict = _majority(held, strict=any(d >= 0.1 for d in drops.values()))
     changes = ", ".join(f"{w} {r} m: {-d:+.2f}" for (w, r), d in drops.items())
     return Verdict(
         "cov is sensitive to localisation noise (structured world)",
         "Fig. 4 column 1: cov bars fall with the noise level",
-        f"cov share, lowest to highest noise: {changes}" if drops else "one noise level",
+        f"cov share, lowest to highest noise: {changes}",
         verdict,
     )
 
 
-def _less_sensitive(shares, cov: str) -> Verdict:
+def _less_sensitive(shares, cov: str) -> Verdict | None:
     wd, cv = _noise_drops(shares, "share_wd"), _noise_drops(shares, cov)
     gaps = _resolution_gaps(shares, cov)
     held = [abs(wd[k]) < abs(cv[k]) for k in wd] + [a < b for a, b in gaps]
+    if not held:
+        return None  # one noise level and one resolution: nothing to compare
     parts = []
     if wd:
         changes = ", ".join(f"{w} {r} m: WD {-wd[(w, r)]:+.2f} vs cov {-cv[(w, r)]:+.2f}"
@@ -308,7 +312,7 @@ def _less_sensitive(shares, cov: str) -> Verdict:
     return Verdict(
         "WD_occ is less sensitive than cov to localisation noise and map resolution",
         "Fig. 4: WD_occ bars change less across noise levels and rows",
-        "; ".join(parts) or "one noise level, one resolution",
+        "; ".join(parts),
         _majority(held),
     )
 

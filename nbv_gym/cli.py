@@ -124,17 +124,17 @@ def worlds_preview(
     \b
       nbv-gym worlds preview pp1-trees --out pp1-trees.png
     """
+    from nbv_gym.outputs import writable_file
     from nbv_gym.worlds import load_world
     from nbv_gym.worlds.preview import save_preview
 
+    writable_file(out)
     typer.echo(save_preview(load_world(name), out))
 
 
 @app.command()
 def run(
-    world: Annotated[
-        str | None, typer.Option(help="World name or spec file [default: the config's world].")
-    ] = None,
+    world: Annotated[str, typer.Option(help="World name or spec file.")] = "pp1-trees",
     policy: Annotated[
         str,
         typer.Option(
@@ -142,13 +142,9 @@ def run(
             "files (a model zip is a pickle): use only ones you trust."
         ),
     ] = "closest-frontier",
-    noise: Annotated[
-        int | None, typer.Option(help="Localisation-noise level 0, 1 or 2 [default: the config's].")
-    ] = None,
+    noise: Annotated[int, typer.Option(help="Localisation-noise level 0, 1 or 2.")] = 1,
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
-    max_steps: Annotated[
-        int | None, typer.Option(help="Truncate after this many steps [default: the config's].")
-    ] = None,
+    max_steps: Annotated[int, typer.Option(help="Truncate after this many steps.")] = 100,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
 ) -> None:
@@ -167,20 +163,20 @@ def run(
           --no-animation
     """
 
-    from dataclasses import replace
-
+    from nbv_gym.config import check
     from nbv_gym.env.explore import EnvConfig
-    from nbv_gym.episode import make_env, run_episode, write_run_folder
+    from nbv_gym.episode import clear_run_folder, make_env, run_episode, write_run_folder
+    from nbv_gym.outputs import writable_folder
     from nbv_gym.policies import load_policy
     from nbv_gym.simulator import EpisodeConfig, SimulatorConfig
 
+    check(seed >= 0, "--seed", f"must be ≥ 0, got {seed}")
     agent = load_policy(policy)
-    given = {"world": world, "noise": noise}
-    simulator = replace(SimulatorConfig(), **{k: v for k, v in given.items() if v is not None})
-    if max_steps is not None:
-        simulator = replace(simulator, episode=EpisodeConfig(max_steps=max_steps))
-    world, noise = simulator.world, simulator.noise
+    simulator = SimulatorConfig(
+        world=world, noise=noise, episode=EpisodeConfig(max_steps=max_steps)
+    )
     env = make_env(EnvConfig(simulator), agent, render=animation)
+    clear_run_folder(writable_folder(out))
     frames = []
 
     def report(row: dict, env) -> None:

@@ -14,10 +14,13 @@ import numpy as np
 
 from nbv_gym.config import to_dict
 from nbv_gym.env.explore import EnvConfig, ExploreEnv
-from nbv_gym.policies import Policy, required_layers
+from nbv_gym.policies import Policy, PolicyError, policy_name, required_layers
 from nbv_gym.provenance import versions
+from nbv_gym.simulator import InvalidActionError
 
 STEP_COLUMNS = ("step", "goal", "discovered", "q", "q_paper", "reward", "path_length_m", "time_s")
+#: The files ``nbv-gym run`` writes into its run folder (besides the trajectory).
+RUN_FILES = ("steps.csv", "summary.json", "map.npz", "statistics.npz", "map.ply", "exploration.gif")
 
 
 @dataclass
@@ -63,9 +66,13 @@ def run_episode(
             on_step(row, env)
         if done:
             break
-        goal = int(policy.act(observation, info))
-        observation, reward, terminated, truncated, info = env.step(goal)
-        row = _row(len(result.steps), goal, info, reward, start)
+        goal = policy.act(observation, info)
+        try:
+            observation, reward, terminated, truncated, info = env.step(goal)
+        except InvalidActionError as error:
+            where = f"Policy {policy_name(policy)} at step {len(result.steps)}"
+            raise PolicyError(f"{where}: {error}") from None
+        row = _row(len(result.steps), int(goal), info, reward, start)
         done = terminated or truncated
     result.end_reason = info["end_reason"]
     result.wall_time_s = time.perf_counter() - start
@@ -83,6 +90,15 @@ def _row(step: int, goal: int, info: dict[str, Any], reward: float, start: float
         "path_length_m": float(info["path_length_m"]),
         "time_s": time.perf_counter() - start,
     }
+
+
+def clear_run_folder(out: Path) -> None:
+    """Delete the :data:`RUN_FILES` and the trajectory a previous run left in ``out`` (so none
+    of them is stale); other files stay."""
+    from nbv_gym.view import TRAJECTORY_NAME
+
+    for name in (*RUN_FILES, TRAJECTORY_NAME):
+        (out / name).unlink(missing_ok=True)
 
 
 def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: dict) -> None:
@@ -103,7 +119,8 @@ def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: di
         "versions": versions(),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_plain))
-    env.sim.save(out)
+    env.sim.state.occupancy.save(out / "map.npz")
+    env.sim.state.statistics.save(out / "statistics.npz")
     _write_exports(out, env)
 
 
@@ -113,7 +130,7 @@ def _write_exports(out: Path, env: ExploreEnv) -> None:
     from nbv_gym.mapping.export import export_map
     from nbv_gym.view import TRAJECTORY_NAME, write_trajectory
 
-    export_map(env.sim.occupancy, out / "map.ply")
+    export_map(env.sim.state.occupancy, out / "map.ply")
     write_trajectory(out / TRAJECTORY_NAME, env.sim.trajectory)
 
 

@@ -22,11 +22,38 @@ from nbv_gym.mapping import (
 from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary, QualityTracker
 from nbv_gym.pose import NOISE_LEVELS, Pose
 from nbv_gym.tasks import EXPLORE_MAX_STEPS
-from nbv_gym.worlds import World, load_world
+from nbv_gym.worlds import World, load_spec, load_world
 
 
 class InvalidActionError(NbvGymError, ValueError):
     """A goal that is not a valid action now; the message says why."""
+
+
+class ResetNeededError(NbvGymError, RuntimeError):
+    """A step before the first reset or after the episode ended (Gymnasium: reset first)."""
+
+
+def goal_index(action: object, n_goals: int) -> int:
+    """``action`` as a goal index in [0, ``n_goals``): a Python or numpy integer, or a 0-d
+    integer array. Anything else (bool, float, NaN, str, a 1-element list or array) raises
+    :class:`InvalidActionError` naming what came — nothing is rounded or converted."""
+    value = action
+    if isinstance(action, np.ndarray) and action.ndim == 0 and action.dtype.kind in "iu":
+        value = action.item()
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise InvalidActionError(
+            f"A goal is an integer index in [0, {n_goals}), got {_describe(action)}. "
+            "Give an integer, e.g. int(np.argmax(scores))."
+        )
+    if not 0 <= value < n_goals:
+        raise InvalidActionError(f"A goal is an integer index in [0, {n_goals}), got {value}.")
+    return int(value)
+
+
+def _describe(value: object) -> str:
+    if isinstance(value, np.ndarray):
+        return f"a {value.dtype} array of shape {value.shape}"
+    return f"{type(value).__name__} {value!r}"
 
 
 @dataclass(frozen=True)
@@ -102,9 +129,12 @@ class Simulator:
 
     def __init__(self, config: SimulatorConfig | None = None, world: World | None = None):
         self.config = config or SimulatorConfig()
-        self.world = world or load_world(self.config.world)
-        self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
         self.goal_grid = self.config.mapping.statistics.grid()
+        spec = world.spec if world is not None else load_spec(self.config.world)
+        low, high = tuple(self.goal_grid.low[:2]), tuple(self.goal_grid.high[:2])
+        spec.check_inside(low, high, "the goal grid (mapping.statistics)")
+        self.world = world or load_world(spec)
+        self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
         self.voxel_grid = _refine(self.goal_grid, self.config.mapping.map.resolution_m)
         self.quality = self._quality_tracker(self.world)
         self.goal_centres = self.goal_grid.xy_centres()
@@ -115,6 +145,7 @@ class Simulator:
         self.trajectory: list[Pose] = []
         self.steps, self.path_length_m = 0, 0.0
         self.summary = self.quality.summary()
+        self.ended = ""  # why the episode ended; "" while it runs
 
     def set_world(self, world: World) -> None:
         """Explore ``world`` from the next :meth:`reset` on (e.g. a world distribution's next
@@ -164,13 +195,20 @@ class Simulator:
         self.trajectory = [self.pose]
         self.steps, self.path_length_m = 0, 0.0
         self.summary = self.quality.summary()  # every cuboid unobserved
+        self.ended = ""
         return self._observe(path_length_m=0.0)
 
     def step(self, goal: int) -> StepOutcome:
         """Teleport to ``goal`` (index into the goal grid), scan, update; raises
-        :class:`InvalidActionError` for a goal that is not valid now."""
+        :class:`InvalidActionError` for a goal that is not a valid action now (see
+        :func:`goal_index`) and :class:`ResetNeededError` before a reset or after the end."""
         if self.state is None:
-            raise NbvGymError("call reset() before step()")
+            raise ResetNeededError("Call reset() before step().")
+        if self.ended:
+            raise ResetNeededError(
+                f"The episode has ended ({self.ended}); call reset() before step() again."
+            )
+        goal = goal_index(goal, self.n_goals)
         self._check_goal(goal)
         path_length = float(self.state.navigation.goal_path_length()[goal])
         x, y = self.goal_centres[goal]
@@ -179,7 +217,9 @@ class Simulator:
         self.trajectory.append(self.pose)
         self.steps += 1
         self.path_length_m += path_length
-        return self._observe(path_length)
+        outcome = self._observe(path_length)
+        self.ended = outcome.reason
+        return outcome
 
     def goal_mask(self) -> np.ndarray:
         """(n_goals,) bool: the goals that are valid actions now."""
@@ -226,10 +266,6 @@ class Simulator:
         return False, False, ""
 
     def _check_goal(self, goal: int) -> None:
-        if not isinstance(goal, (int, np.integer)) or not 0 <= goal < self.n_goals:
-            raise InvalidActionError(
-                f"A goal is an integer index in [0, {self.n_goals}), got {goal!r}."
-            )
         if self.goal_mask()[goal]:
             return
         x, y = self.goal_centres[goal]

@@ -26,7 +26,7 @@ from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
 from nbv_gym.nbv import NbvConfig
-from nbv_gym.simulator import EpisodeConfig, Simulator, SimulatorConfig, StepOutcome
+from nbv_gym.simulator import EpisodeConfig, Simulator, SimulatorConfig, StepOutcome, goal_index
 from nbv_gym.tasks import task_episode
 from nbv_gym.worlds.distribution import POOL_SIZE, WorldDistribution, is_distribution
 
@@ -52,6 +52,12 @@ class EnvConfig:
             f"expected one of {', '.join(INVALID_ACTIONS)}, got {self.invalid_action!r}",
         )
         check(self.world_pool_size >= 1, "world_pool_size", "must be ≥ 1")
+        check(
+            not isinstance(self.observation_layers, str),
+            "observation_layers",
+            f"expected a list of layer names, got the string {self.observation_layers!r}; "
+            f"write ({self.observation_layers!r},)",
+        )
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
         check(
             not unknown,
@@ -155,7 +161,7 @@ class ExploreEnv(gymnasium.Env):
         return self._observation(), self._info()
 
     def step(self, action):
-        goal, snapped = (int(action) if np.ndim(action) == 0 else action), False
+        goal, snapped = goal_index(action, self.sim.n_goals), False
         if self.sim.state is not None:
             goal, snapped = resolve_goal(goal, self.sim.goal_mask(), self.config.invalid_action)
         outcome = self.sim.step(goal)
@@ -246,7 +252,8 @@ def _resolve(config, task, world, noise, max_steps, observation_layers, shortcut
     if max_steps is not None:
         episode = replace(episode, max_steps=max_steps)
     simulator = replace(simulator, episode=episode)
-    layers = config.observation_layers if observation_layers is None else tuple(observation_layers)
+    layers = config.observation_layers if observation_layers is None else observation_layers
+    layers = layers if isinstance(layers, str) else tuple(layers)  # a str is refused, not split
     extra = {k: v for k, v in shortcuts.items() if v is not None}
     return replace(config, simulator=simulator, observation_layers=layers, **extra)
 

@@ -10,6 +10,7 @@ import numpy as np
 import typer
 
 from nbv_gym.metrics import MetricInputError
+from nbv_gym.outputs import writable_folder
 
 CSV_NAME = "cuboids.csv"
 SUMMARY_NAME = "summary.json"
@@ -76,6 +77,8 @@ def evaluate_map(
     from nbv_gym.metrics.cuboids import benchmark_grid, evaluate_cuboids
     from nbv_gym.metrics.wasserstein import wd_occ
 
+    if out is not None:
+        writable_folder(out)
     grid = benchmark_grid()
     with _Stages(4) as stage:
         stage("reading the map")
@@ -88,7 +91,6 @@ def evaluate_map(
         wd = wd_occ(prob, truth, metrics.config, metrics.observed)
     summary = _map_summary(metrics, wd)
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
         _write_cuboid_csv(out / CSV_NAME, metrics, wd, grid)
         (out / SUMMARY_NAME).write_text(json.dumps(_jsonable(summary), indent=2) + "\n")
         _write_heatmap(out / HEATMAP_NAME, metrics.quality, summary["q"])
@@ -102,11 +104,12 @@ def evaluate_clouds(
     from nbv_gym.metrics.empir3d import Empir3DConfig, empir3d
     from nbv_gym.metrics.pointclouds import read_points
 
+    if out is not None:
+        writable_folder(out)
     config = Empir3DConfig(epsilon_m=epsilon, region_m=region)
     result = empir3d(read_points(reference), read_points(candidate), config, distances=True)
     summary = {"reference": str(reference), "candidate": str(candidate), **result.as_dict()}
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
         _write_rows(out / REGIONS_NAME, result.regions.rows())
     return summary
 
@@ -115,12 +118,24 @@ def load_probability(path: Path, grid) -> np.ndarray:
     """The (X, Y, Z) float32 probability grid of a saved map (.npz) or a plain array (.npy)."""
     if not path.is_file():
         raise MetricInputError(f"{path}: no such map file")
+    if path.suffix not in (".npz", ".npy"):
+        raise MetricInputError(
+            f"{path}: --map takes a saved map (.npz, as `nbv-gym run` writes) or a probability "
+            f"grid (.npy), not a {path.suffix or 'suffix-less'} file; score point clouds with "
+            "`nbv-gym evaluate REFERENCE CANDIDATE`"
+        )
     if path.suffix == ".npy":
         prob = _load_npy(path)
         if prob.shape != grid.shape or not np.issubdtype(prob.dtype, np.floating):
             raise MetricInputError(
                 f"{path}: expected a float probability grid of shape {grid.shape} (the 0.1 m "
                 f"benchmark grid), got {prob.dtype} {prob.shape}"
+            )
+        bad = ~((prob >= 0) & (prob <= 1))  # NaN too
+        if bad.any():
+            raise MetricInputError(
+                f"{path}: probabilities must lie in [0, 1]; {int(bad.sum())} value(s) do not "
+                f"(e.g. {float(prob[bad].flat[0])})"
             )
         return prob.astype(np.float32, copy=False)
     from nbv_gym.mapping import OccupancyMap

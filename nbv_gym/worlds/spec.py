@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import importlib.resources
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,10 +46,18 @@ class PlacementConfig:
             "must be ≥ 2, or 0 for max(2, int(n_assets / 20) + 1)",
         )
         check(self.parents <= self.n_assets, "n_parents", "must not exceed n_assets")
-        check(self.cluster_radius_m > 0, "cluster_radius_m", "must be > 0")
+        check(0 < self.cluster_radius_m < math.inf, "cluster_radius_m", "must be > 0 and finite")
+        check(all(map(math.isfinite, self.window_m)), "window_m", "must be finite")
         x0, y0, x1, y1 = self.window_m
         check(x0 < 0 < x1 and y0 < 0 < y1, "window_m", "must contain the start (0, 0)")
-        check(self.clear_radius_m >= 0, "clear_radius_m", "must be ≥ 0")
+        check(0 <= self.clear_radius_m < math.inf, "clear_radius_m", "must be ≥ 0 and finite")
+        nearest = min(-x0, -y0, x1, y1)
+        check(
+            self.clear_radius_m < nearest,
+            "clear_radius_m",
+            f"the clear disc around the start must lie inside window_m (radius < {nearest:g} m, "
+            f"its nearest edge), got {self.clear_radius_m:g}: assets would be pushed out of it",
+        )
 
     @property
     def parents(self) -> int:
@@ -73,14 +82,14 @@ class AssetConfig:
         check(not unknown, "mix", f"unknown asset type(s) {unknown}; valid: {list(ASSET_TYPES)}")
         check(
             bool(self.mix)
-            and all(w >= 0 for w in self.mix.values())
+            and all(0 <= w < math.inf for w in self.mix.values())
             and sum(self.mix.values()) > 0,
             "mix",
-            "needs non-negative weights, not all zero",
+            f"needs finite non-negative weights, not all zero, got {self.mix}",
         )
         for key in ("scale_horizontal", "scale_vertical"):
             low, high = getattr(self, key)
-            check(0 < low <= high, key, f"expected 0 < low ≤ high, got {(low, high)}")
+            check(0 < low <= high < math.inf, key, f"expected 0 < low ≤ high, got {(low, high)}")
         check(self.tree_library_size >= 1, "tree_library_size", "must be ≥ 1")
 
 
@@ -96,9 +105,28 @@ class WorldSpec:
     ground_size_m: float = 64.0
 
     def __post_init__(self) -> None:
-        half = self.ground_size_m / 2
+        size = self.ground_size_m
+        check(0 < size < math.inf, "ground_size_m", f"must be > 0 and finite, got {size:g}")
         x0, y0, x1, y1 = self.placement.window_m
-        check(min(-x0, -y0, x1, y1) <= half, "ground_size_m", "the ground must cover the window")
+        check(
+            max(-x0, -y0, x1, y1) <= size / 2,
+            "ground_size_m",
+            f"the ground (±{size / 2:g} m around the origin) must cover placement.window_m "
+            f"{self.placement.window_m}, so that every asset stands on it",
+        )
+
+    def check_inside(self, low_xy: tuple[float, float], high_xy: tuple[float, float], what: str):
+        """Raise :class:`ConfigError` naming ``placement.window_m`` unless the window lies in
+        the box ``low_xy``–``high_xy`` (metres) of ``what`` (e.g. the map of a simulator)."""
+        x0, y0, x1, y1 = self.placement.window_m
+        inside = low_xy[0] <= x0 and low_xy[1] <= y0 and x1 <= high_xy[0] and y1 <= high_xy[1]
+        check(
+            inside,
+            "placement.window_m",
+            f"world {self.name!r} places assets in {self.placement.window_m}, outside {what} "
+            f"(x from {low_xy[0]:g} to {high_xy[0]:g} m, y from {low_xy[1]:g} to "
+            f"{high_xy[1]:g} m), where they are never mapped; keep the window inside it",
+        )
 
     def digest(self) -> str:
         """A short hash of the spec's content (the name and description excluded)."""
@@ -126,6 +154,11 @@ def benchmark_names() -> list[str]:
 
 def load_spec(name_or_path: str | Path) -> WorldSpec:
     """The spec of a benchmark world name (e.g. ``"pp1-trees"``) or of a ``.toml`` file path."""
+    if not str(name_or_path).strip():
+        raise ConfigError(
+            "The world name is empty; give a benchmark world (see `nbv-gym worlds list`) or "
+            "the path of a world spec file (.toml)."
+        )
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():

@@ -33,7 +33,12 @@ POLICY_MODULES = (
 #: The largest saved Box rebuilt with its shape (elements).
 MAX_BOX_SIZE = 1 << 20
 _MASKABLE_BUFFERS = "sb3_contrib.common.maskable.buffers"
-_DISCRETE = "<class 'gymnasium.spaces.discrete.Discrete'>"
+#: Saved Discrete action spaces: Gymnasium's, and Explore-v0's GoalSpace (a Discrete whose
+#: sample() draws valid goals), which models trained on the registered ids save.
+_DISCRETE = (
+    "<class 'gymnasium.spaces.discrete.Discrete'>",
+    "<class 'nbv_gym.env.explore.GoalSpace'>",
+)
 _DICT = "<class 'gymnasium.spaces.dict.Dict'>"
 #: ``'name': Kind(...)`` entries of a saved Dict space's ``spaces`` repr.
 _ENTRY = re.compile(r"'(?P<key>[^']*)': (?P<kind>\w+)\((?P<body>.*?)\)(?=, '|\}$)")
@@ -120,7 +125,7 @@ def _action_space(entry: Any, path: Path) -> Any:
 
     entry = _readable({"action_space": entry}, "action_space", path)
     n = entry.get("n")
-    if entry[":type:"] == _DISCRETE and isinstance(n, str) and n.isdecimal() and len(n) < 10:
+    if entry[":type:"] in _DISCRETE and isinstance(n, str) and n.isdecimal() and len(n) < 10:
         return spaces.Discrete(int(n))
     return entry[":type:"]
 

@@ -1,0 +1,28 @@
+"""The training environments: one simulator cycles over its worlds or draws from a distribution;
+unmasked learners' environments snap invalid goals."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nbv_gym.rl.envs import WorldCycleEnv
+
+BORDER_GOAL = 0  # never valid: within 1 m of the window border
+
+
+def test_world_cycle_switches_worlds_in_one_simulator(world):
+    env = WorldCycleEnv(worlds=(world, "pp1-cuboids"), max_steps=2, reward_scale=100.0)
+    simulator = env.env.sim
+    names = [env.reset(seed=k)[1]["world"] for k in range(3)]
+    assert names == ["tiny-cuboids", "pp1-cuboids", "tiny-cuboids"]
+    assert env.env.sim is simulator
+
+
+def test_distribution_draws_and_snapping_reaches_the_learner():
+    env = WorldCycleEnv(
+        worlds=("random:cuboids",), max_steps=2, invalid_action="snap", world_pool_size=4
+    )
+    drawn = {env.reset(seed=seed)[1]["world"] for seed in range(6)}
+    assert len(drawn) > 1 and all(name.startswith("random-cuboids-") for name in drawn)
+    *_, info = env.step(np.int64(BORDER_GOAL))
+    assert info["snapped"] and info["goal"] != BORDER_GOAL

@@ -150,9 +150,9 @@ def _read_npy(path: Path) -> FloatArray:
         array = read_npy(path)
     except DataFileError as error:
         raise PointCloudError(path, str(error).removeprefix(f"{path}: ")) from None
-    if array.ndim != 2 or array.shape[1] < 3 or not np.issubdtype(array.dtype, np.number):
+    if array.ndim != 2 or array.shape[1] < 3 or array.dtype.kind not in "iuf":
         raise PointCloudError(
-            path, f"expected an (n, 3) numeric array, got {array.dtype} {array.shape}"
+            path, f"expected an (n, 3) real numeric array, got {array.dtype} {array.shape}"
         )
     return array[:, :3]
 

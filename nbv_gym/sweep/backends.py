@@ -225,12 +225,12 @@ class DaskBackend:
             self.description = f"Dask LocalCluster of {workers} worker(s)"
         else:
             try:
-                self.client = Client(scheduler, timeout="30s")
+                self.client = Client(scheduler, timeout="30s", security=client_security(scheduler))
             except (OSError, ValueError) as error:  # unreachable, or not an address
                 raise SweepError(
                     f"Cannot reach the Dask scheduler at {scheduler!r}: {error}. Start one with "
                     "`dask scheduler` (and `dask worker ADDRESS` on each machine), or use "
-                    "--scheduler local."
+                    f"--scheduler local.{_TLS_HINT if scheduler.startswith('tls://') else ''}"
                 ) from None
             self.description = f"Dask cluster at {scheduler}"
         self.scheduler = scheduler
@@ -317,6 +317,42 @@ NO_WORKER_WAIT_S = 120.0
 _POLL_S = 5.0  # how often a Dask sweep checks deadlines and workers, seconds
 
 
+#: Dask's TLS settings a client of a ``tls://`` scheduler reads: config key → environment
+#: variable. The key may be left out when the certificate file holds it too.
+TLS_SETTINGS = {
+    "distributed.comm.tls.ca-file": "DASK_DISTRIBUTED__COMM__TLS__CA_FILE",
+    "distributed.comm.tls.client.cert": "DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT",
+    "distributed.comm.tls.client.key": "DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY",
+}
+_TLS_HINT = (
+    " The scheduler refuses clients whose certificate its CA did not sign: check that the "
+    "CA file and the client certificate are the cluster's."
+)
+
+
+def client_security(scheduler: str):
+    """Dask's ``Security`` for a client of ``scheduler``: for a ``tls://`` address, TLS with the CA
+    file, certificate and key of Dask's config (its YAML files or the environment variables of
+    :data:`TLS_SETTINGS`); None (Dask's defaults) for other addresses.
+
+    Raises :class:`SweepError` naming the setting when the CA file or certificate is not set or
+    its file does not exist."""
+    import dask.config
+    from distributed.security import Security
+
+    if not scheduler.startswith("tls://"):
+        return None
+    for key, variable in TLS_SETTINGS.items():
+        value = dask.config.get(key, None)
+        if value is None and key.endswith(".key"):
+            continue  # the certificate file holds the key
+        if not value or not os.path.isfile(value):
+            problem = "is not set" if not value else f"names {value!r}, which does not exist"
+            raise SweepError(
+                f"--scheduler {scheduler} needs TLS: Dask's setting {key} {problem}. Set it in "
+                f"Dask's config or as ${variable} (see README, Security and trust)."
+            )
+    return Security(require_encryption=True)
 @contextlib.contextmanager
 def _worker_environment():
     """Put :data:`WORKER_ENVIRONMENT` into ``os.environ`` while the pool lives (worker processes

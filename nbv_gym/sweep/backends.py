@@ -353,6 +353,8 @@ def client_security(scheduler: str):
                 f"Dask's config or as ${variable} (see README, Security and trust)."
             )
     return Security(require_encryption=True)
+
+
 @contextlib.contextmanager
 def _worker_environment():
     """Put :data:`WORKER_ENVIRONMENT` into ``os.environ`` while the pool lives (worker processes

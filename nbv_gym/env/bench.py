@@ -33,7 +33,11 @@ PARTS = {
     "env_lidar_ms": (("sim.lidar", "scan"),),
     "env_insert_ms": (("sim.state.occupancy", "insert"),),
     "env_statistics_ms": (("sim.state.statistics", "update"),),
-    "env_navigation_ms": (("sim.state", "_project"), ("sim.state.navigation", "plan")),
+    "env_navigation_ms": (
+        ("sim.state", "_project"),
+        ("sim.state", "update_navigation"),
+        ("sim.state.navigation", "plan"),
+    ),
     "env_quality_ms": (("sim", "_update_quality"),),
     "env_observation_ms": (("", "_observation"), ("", "_info")),
 }
@@ -81,27 +85,32 @@ def _steps(env) -> dict[str, float]:
 
 
 def _time_parts(env, spent: dict[str, float] | None = None) -> dict[str, float]:
-    """Wrap the methods of :data:`PARTS` on their instances (again after a reset that replaced
-    them); returns the dict the wrappers add their seconds to."""
+    """Wrap the methods of :data:`PARTS` that exist on their instances (again after a reset that
+    replaced them); returns the dict the wrappers add their seconds to. A part's time is counted
+    once when its methods call each other."""
     spent = {} if spent is None else spent
+    running: dict[str, int] = {}
     for key, methods in PARTS.items():
         for path, name in methods:
             owner = env
             for attribute in filter(None, path.split(".")):
-                owner = getattr(owner, attribute)
-            method = getattr(owner, name)
-            if not getattr(method, "bench_timed", False):
-                setattr(owner, name, _timed(method, key, spent))
+                owner = getattr(owner, attribute, None)
+            method = getattr(owner, name, None)
+            if method is not None and not getattr(method, "bench_timed", False):
+                setattr(owner, name, _timed(method, key, spent, running))
     return spent
 
 
-def _timed(method, key: str, spent: dict[str, float]):
+def _timed(method, key: str, spent: dict[str, float], running: dict[str, int]):
     def timed(*args, **kwargs):
         start = time.perf_counter()
+        running[key] = running.get(key, 0) + 1
         try:
             return method(*args, **kwargs)
         finally:
-            spent[key] = spent.get(key, 0.0) + time.perf_counter() - start
+            running[key] -= 1
+            if not running[key]:
+                spent[key] = spent.get(key, 0.0) + time.perf_counter() - start
 
     timed.bench_timed = True
     return timed

@@ -6,7 +6,7 @@ import csv
 import json
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +18,10 @@ from nbv_gym.policies import Policy, PolicyError, policy_name, required_layers
 from nbv_gym.provenance import versions
 from nbv_gym.simulator import InvalidActionError
 
-STEP_COLUMNS = ("step", "goal", "discovered", "q", "q_paper", "reward", "path_length_m", "time_s")
+STEP_COLUMNS = (
+    "step", "goal", "discovered", "q", "q_paper", "q_observed", "reward", "path_length_m",
+    "predicted_gain", "realised_gain", "time_s",
+)  # fmt: skip
 #: The files ``nbv-gym run`` writes into its run folder (besides the trajectory).
 RUN_FILES = ("steps.csv", "summary.json", "map.npz", "statistics.npz", "map.ply", "exploration.gif")
 
@@ -41,8 +44,10 @@ class EpisodeResult:
 def make_env(config: EnvConfig, policy: Policy, render: bool = False) -> ExploreEnv:
     """An environment that computes the optional layers ``policy`` declares."""
     layers = tuple(dict.fromkeys((*config.observation_layers, *required_layers(policy))))
+    visibility = getattr(policy, "visibility", None)
+    nbv = config.nbv if visibility is None else replace(config.nbv, visibility=visibility)
     return ExploreEnv(
-        "rgb_array" if render else None, EnvConfig(config.simulator, layers, config.nbv)
+        "rgb_array" if render else None, replace(config, observation_layers=layers, nbv=nbv)
     )
 
 
@@ -58,7 +63,7 @@ def run_episode(
     observation, info = env.reset(seed=seed)
     policy.reset(seed)
     result = EpisodeResult()
-    row = _row(0, -1, info, 0.0, start)
+    row = _row(0, -1, info, 0.0, start, policy)
     done = False
     while True:
         result.steps.append(row)
@@ -72,22 +77,30 @@ def run_episode(
         except InvalidActionError as error:
             where = f"Policy {policy_name(policy)} at step {len(result.steps)}"
             raise PolicyError(f"{where}: {error}") from None
-        row = _row(len(result.steps), int(goal), info, reward, start)
+        row = _row(len(result.steps), int(goal), info, reward, start, policy)
         done = terminated or truncated
     result.end_reason = info["end_reason"]
     result.wall_time_s = time.perf_counter() - start
     return result
 
 
-def _row(step: int, goal: int, info: dict[str, Any], reward: float, start: float) -> dict:
+def _row(
+    step: int, goal: int, info: dict[str, Any], reward: float, start: float, policy: Policy
+) -> dict:
+    """One step's row; ``predicted_gain``/``realised_gain`` are those of the policy's gain layer
+    (the ``nbv-*`` policies' ``gain_layer``), NaN for other policies and after a reset."""
+    layer = getattr(policy, "gain_layer", None)
     return {
         "step": step,
         "goal": goal,
         "discovered": float(info["discovered"]),
         "q": float(info["q"]),
         "q_paper": float(info["q_paper"]),
+        "q_observed": float(info["q_observed"]),
         "reward": float(reward),
         "path_length_m": float(info["path_length_m"]),
+        "predicted_gain": float(info.get("predicted_gain", {}).get(layer, np.nan)),
+        "realised_gain": float(info.get("realised_gain", {}).get(layer, np.nan)),
         "time_s": time.perf_counter() - start,
     }
 
@@ -119,8 +132,7 @@ def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: di
         "versions": versions(),
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=_plain))
-    env.sim.state.occupancy.save(out / "map.npz")
-    env.sim.state.statistics.save(out / "statistics.npz")
+    env.sim.save(out)
     _write_exports(out, env)
 
 
@@ -130,7 +142,7 @@ def _write_exports(out: Path, env: ExploreEnv) -> None:
     from nbv_gym.mapping.export import export_map
     from nbv_gym.view import TRAJECTORY_NAME, write_trajectory
 
-    export_map(env.sim.state.occupancy, out / "map.ply")
+    export_map(env.sim.occupancy, out / "map.ply")
     write_trajectory(out / TRAJECTORY_NAME, env.sim.trajectory)
 
 

@@ -57,10 +57,13 @@ PREFIXES: dict[str, str] = {SB3_PREFIX: "nbv_gym.rl.agent:SB3Policy"}
 def load_policy(name: str, **kwargs: Any) -> Policy:
     """A new policy from a registered name (``"closest-frontier"``), ``"module:Class"`` or
     ``"sb3:PATH"`` (a model saved by ``nbv-gym train``); ``kwargs`` go to the class's
-    constructor."""
+    constructor. A registered NBV name may fix its visibility model: ``"nbv-nobs@fov"``."""
     for prefix, target in PREFIXES.items():
         if name.startswith(prefix):
             return _import_class(target, name)(name[len(prefix) :], **kwargs)
+    base, at, visibility = name.partition("@")
+    if at and base in POLICIES:
+        name, kwargs = base, {**kwargs, "visibility": visibility}
     target = POLICIES.get(name, name)
     if ":" not in target:
         raise UnknownNameError("policy", name, POLICIES)

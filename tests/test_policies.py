@@ -88,3 +88,16 @@ def test_user_policy_errors_say_what_is_wrong(tmp_path, monkeypatch):
         load_policy("my_policies:Missing")
     with pytest.raises(PolicyError, match="cannot import module 'not_a_module_xyz'"):
         load_policy("not_a_module_xyz:Policy")
+
+
+def test_an_nbv_name_may_fix_its_visibility_model():
+    from nbv_gym.env.explore import EnvConfig
+    from nbv_gym.episode import make_env
+
+    policy = load_policy("nbv-sigma@fov")
+    assert policy.statistic == "sigma" and policy.visibility == "fov"
+    assert load_policy("nbv-sigma").visibility is None
+    with pytest.raises(PolicyError, match="visibility"):
+        load_policy("nbv-sigma@sky")
+    env = make_env(EnvConfig(), policy)
+    assert env.config.nbv.visibility == "fov" and "gain_sigma" in env.config.observation_layers

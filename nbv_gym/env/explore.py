@@ -230,6 +230,7 @@ class ExploreEnv(gymnasium.Env):
             "true_pose": np.array(_pose_tuple(outcome.scan.true_pose)),
             "estimated_pose": np.array(_pose_tuple(outcome.scan.pose)),
             "end_reason": outcome.reason,
+            **self.optional.calibration(),
         }
 
 

@@ -41,9 +41,10 @@ class SweepConfig:
     config file); ``policies`` (required): registered policy names, ``module:Class`` or a
     trained agent (anything :func:`nbv_gym.policies.load_policy` takes); ``noise``:
     localisation-noise levels (0, 1, 2); ``repeats``: runs per combination; ``seed``: base seed
-    of every run seed; ``max_steps``: the episode truncation of the explore task; ``task``: ``"explore"`` (the
-    paper's protocol) or ``"budget"`` (``budget_scans`` scans, no termination; :mod:`nbv_gym.tasks`); ``retries``: how many times a
-    failed run is retried within one invocation; ``run_timeout_s``: wall-clock limit of one run
+    of every run seed; ``max_steps``: the episode truncation of the explore task; ``task``:
+    ``"explore"`` (the paper's protocol) or ``"budget"`` (``budget_scans`` scans, no
+    termination; :mod:`nbv_gym.tasks`); ``retries``: how many times a failed run is retried
+    within one invocation; ``run_timeout_s``: wall-clock limit of one run
     (world building included), after which its worker is stopped and the run recorded as failed
     ("timed out after N s"); ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for
     every run.
@@ -246,7 +247,7 @@ def _toml_value(value: Any) -> str:
 def _check_policy_name(name: str, key: str) -> None:
     from nbv_gym.policies import POLICIES
 
-    if name not in POLICIES and ":" not in name:
+    if name.partition("@")[0] not in POLICIES and ":" not in name:
         try:
             raise UnknownNameError("policy", name, POLICIES)
         except UnknownNameError as error:

@@ -32,9 +32,10 @@ def test_sweep_writes_one_row_per_run_and_step_and_resumes_without_rerunning(tmp
     runs = pd.read_csv(tmp_path / "out" / "runs.csv")
     steps = pd.read_csv(tmp_path / "out" / "steps.csv")
     cuboids = pd.read_parquet(tmp_path / "out" / "cuboids.parquet")
-    assert list(runs.columns) == list(RUN_COLUMNS) and list(steps.columns) == list(
-        STEP_TABLE_COLUMNS
-    )
+    reason = list(runs.columns).index("end_reason")
+    assert list(runs.columns.drop("end_code")) == list(RUN_COLUMNS)  # end_code: beside end_reason
+    assert runs.columns[reason + 1] == "end_code"
+    assert list(steps.columns) == list(STEP_TABLE_COLUMNS)
     assert list(cuboids.columns) == list(CUBOID_COLUMNS)
     assert sorted(runs["key"]) == sorted(r.key for r in load_sweep_config(config).runs())
     assert (runs["status"] == "ok").all() and (runs["steps"] == 2).all()

@@ -126,7 +126,9 @@ def ordering_rows(runs, steps) -> tuple[list[dict], dict[str, float]]:
 
     at = paired_at_fractions(runs, steps)
     table = runs[["world", "noise", "repeat", "asset", "policy"]].join(at)
-    wide = table.pivot_table(index=["world", "noise", "repeat", "asset"], columns="policy")
+    wide = table.pivot_table(
+        index=["world", "noise", "repeat", "asset"], columns="policy", dropna=False
+    )
     nbv = sorted(p for p in set(runs["policy"]) if p.startswith("nbv-"))
     rows, advantage = [], {}
     for policy in nbv:
@@ -134,7 +136,7 @@ def ordering_rows(runs, steps) -> tuple[list[dict], dict[str, float]]:
             hits, cells, means = 0, 0, []
             for asset in [a for a in ASSET_TYPES if a in set(runs["asset"])]:
                 for fraction in FRACTIONS:
-                    pair = wide[fraction][[policy, baseline]]
+                    pair = wide[fraction].reindex(columns=[policy, baseline])
                     pair = pair[pair.index.get_level_values("asset") == asset].dropna()
                     if len(pair) < 2:
                         continue

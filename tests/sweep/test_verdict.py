@@ -67,3 +67,16 @@ def test_ordering_pairs_runs_and_tests_each_cell():
 def test_harder_worlds_need_a_growing_advantage():
     assert harder_row({"cuboids": 0.01, "trees": 0.03})["verdict"] == "reproduced"
     assert harder_row({"cuboids": 0.03, "crosses": 0.02, "trees": 0.01})["verdict"] == "not"
+
+
+def test_ordering_of_runs_that_never_reach_the_fractions_has_no_cells():
+    runs = pd.DataFrame(
+        [{"key": p, "world": "w", "noise": 0, "repeat": 0, "asset": "trees", "policy": p}
+         for p in ("nbv-nobs", "random-free")]  # fmt: skip
+    )
+    steps = pd.DataFrame(
+        [{"key": p, "step": s, "discovered": 0.1 * (s + 1), "q_paper": 0.1} for p in runs["key"]
+         for s in range(3)]  # fmt: skip
+    )
+    rows, advantage = ordering_rows(runs, steps)
+    assert rows[0]["verdict"] == "no data" and advantage == {}

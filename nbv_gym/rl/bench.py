@@ -1,12 +1,22 @@
-"""Bench suite of RL training: ``train_steps_per_s`` on pp1-trees.
+"""Bench suite of RL training on pp1-trees: ``train_steps_per_s`` and where its time goes.
 
-Environment steps per second of MaskablePPO training (rollouts and updates) with the default
-config's ``n_envs`` and hyper-parameters, measured over two updates after one warm-up update
-(worker start-up, compilation and world loading excluded).
+MaskablePPO training with the default config's ``n_envs`` and hyper-parameters, measured over
+:data:`UPDATES` updates after one warm-up update (worker start-up, compilation and world loading
+excluded):
+
+- ``train_steps_per_s``: environment steps per second of wall time, rollouts and updates;
+- ``train_env_ms_per_step``: wall ms per environment step waiting for the environments (steps,
+  resets and action masks, computed in the workers and sent through the pipes);
+- ``train_policy_ms_per_step``: the rest of the rollouts (the policy's forward passes, the
+  rollout buffer);
+- ``train_update_ms_per_step``: the PPO updates (the environments idle meanwhile).
+
+The last three add up to ``1000 / train_steps_per_s`` (up to SB3's bookkeeping between updates).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -16,28 +26,36 @@ UPDATES = 2
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
-    """``train_steps_per_s``: steps per second of MaskablePPO training on pp1-trees."""
+    """The suite's figures (module docstring) for MaskablePPO training on :data:`WORLD`."""
     from nbv_gym.rl.config import TrainConfig
-    from nbv_gym.rl.train import _create, make_vec_env, require_rl
+    from nbv_gym.rl.train import _create, make_vec_env, require_rl, set_torch_threads
 
     require_rl()
-    import os
+    from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv
 
     os.environ["NUMBA_NUM_THREADS"] = "1"
     config = replace(TrainConfig(), train_worlds=(WORLD,), eval_worlds=())
+    set_torch_threads(config.torch_threads)
     per_update = config.learning.n_steps * config.n_envs
-    envs = make_vec_env(config)
+    envs = TimedVecEnv(make_vec_env(config))
     try:
         model = _create(config, envs, verbose=0)
         progress(f"MaskablePPO warm-up on {WORLD}: {config.n_envs} envs × {per_update} steps")
         model.learn(per_update)
         progress(f"MaskablePPO training on {WORLD}: {UPDATES} updates of {per_update} steps")
+        phases, envs.seconds = PhaseTimer(), 0.0
         start, steps = time.perf_counter(), model.num_timesteps
-        model.learn(UPDATES * per_update, reset_num_timesteps=False)
+        model.learn(UPDATES * per_update, reset_num_timesteps=False, callback=phases)
         elapsed = time.perf_counter() - start
     finally:
         envs.close()
-    return {"train_steps_per_s": (model.num_timesteps - steps) / elapsed}
+    steps = model.num_timesteps - steps
+    return {
+        "train_steps_per_s": steps / elapsed,
+        "train_env_ms_per_step": 1000 * envs.seconds / steps,
+        "train_policy_ms_per_step": 1000 * (phases.rollout_s - envs.seconds) / steps,
+        "train_update_ms_per_step": 1000 * phases.update_s / steps,
+    }
 
 
 if __name__ == "__main__":

@@ -26,6 +26,17 @@ def train(
         int | None, typer.Option(help="Parallel environments (overrides n_envs).")
     ] = None,
     seed: Annotated[int | None, typer.Option(help="Seed (overrides seed).")] = None,
+    device: Annotated[
+        str | None, typer.Option(help="Torch device: cpu, cuda or auto (overrides device).")
+    ] = None,
+    time_limit: Annotated[
+        float | None,
+        typer.Option(
+            "--time-limit",
+            help="Stop after this many minutes of training, then save as if finished.",
+            min=0.0,
+        ),
+    ] = None,
     eval_every: Annotated[
         int | None,
         typer.Option(help="Evaluate every N environment steps (overrides eval_every_steps; 0: never)."),
@@ -37,7 +48,8 @@ def train(
     periodic checkpoints and masked evaluation on the evaluation worlds.
 
     The run folder holds config.toml, system_info.txt, logs/run-<k>/ (progress.csv and
-    TensorBoard events), checkpoints/, best_model.zip (best evaluation) and final_model.zip.
+    TensorBoard events), checkpoints/, best_model.zip (best evaluation), final_model.zip,
+    episodes.csv (every training episode) and learning_curve.png.
     A model runs as a policy named sb3:PATH in nbv-gym run and in sweep configs. A model zip
     is code (SB3 unpickles it): load only models you trust.
 
@@ -48,6 +60,8 @@ def train(
       nbv-gym train --config experiments/ppo.toml --timesteps 5000 \\
           --out runs/ppo-short
       nbv-gym train --config experiments/ppo.toml --eval-every 2000
+      nbv-gym train --config experiments/ppo.toml --n-envs 16 \\
+          --device cuda --time-limit 9
       nbv-gym train --config experiments/ppo.toml \\
           --resume runs/ppo/checkpoints/model_8000_steps.zip
       tensorboard --logdir runs/ppo/logs
@@ -57,7 +71,7 @@ def train(
     from nbv_gym.rl.train import train as train_agent
 
     overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
-                 "eval_every_steps": eval_every}  # fmt: skip
+                 "eval_every_steps": eval_every, "device": device}  # fmt: skip
     settings = load_train_config(config, overrides)
     out = out or Path("runs") / config.stem
     typer.echo(
@@ -66,7 +80,14 @@ def train(
         f"{len(settings.eval_worlds)} → {out}",
         err=True,
     )
-    model = train_agent(settings, out, resume=resume, progress_bar=progress, verbose=int(verbose))
+    model = train_agent(
+        settings,
+        out,
+        resume=resume,
+        progress_bar=progress,
+        verbose=int(verbose),
+        time_limit_s=None if time_limit is None else 60 * time_limit,
+    )
     _summary(out, model.num_timesteps)
 
 
@@ -79,7 +100,7 @@ def _summary(out: Path, steps: int) -> None:
     if evaluations.exists():
         results = np.load(evaluations)["results"].mean(axis=1)
         rows.append(("best eval return", f"{results.max():.3f} (of {len(results)} evaluations)"))
-    for name in ("best_model.zip", "final_model.zip"):
+    for name in ("best_model.zip", "final_model.zip", "learning_curve.png"):
         if (out / name).exists():
             rows.append((name, str(out / name)))
     for key, value in rows:

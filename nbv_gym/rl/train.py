@@ -3,7 +3,8 @@
 The run folder ``out`` receives ``config.toml`` (the resolved :class:`TrainConfig`),
 ``system_info.txt``, ``logs/run-<k>/`` (``progress.csv`` and TensorBoard events, one folder per
 start or resume), ``checkpoints/model_<steps>_steps.zip``, ``best_model.zip`` (best mean
-evaluation return), ``eval/evaluations.npz`` and ``final_model.zip``.
+evaluation return), ``eval/evaluations.npz``, ``final_model.zip``, ``episodes.csv`` (every
+training episode) and ``learning_curve.png`` (:mod:`nbv_gym.rl.curve`).
 """
 
 from __future__ import annotations
@@ -17,14 +18,11 @@ from typing import Any
 
 from nbv_gym.config import to_dict
 from nbv_gym.errors import ConfigError, MissingExtraError
-from nbv_gym.rl.config import TrainConfig
+from nbv_gym.rl.config import ALGORITHMS, TrainConfig
+from nbv_gym.rl.curve import EPISODES_CSV, plot_learning_curve
 
-#: SB3 algorithm class names → ``module:Class``.
-ALGORITHM_CLASSES = {
-    "MaskablePPO": "sb3_contrib:MaskablePPO",
-    "PPO": "stable_baselines3:PPO",
-    "A2C": "stable_baselines3:A2C",
-}
+#: SB3 algorithm class names → ``module:Class`` (SB3's classes saving lean model files).
+ALGORITHM_CLASSES = {name: f"nbv_gym.rl.algorithms:{name}" for name in ALGORITHMS}
 FINAL_MODEL = "final_model.zip"
 BEST_MODEL = "best_model.zip"
 
@@ -48,14 +46,18 @@ def train(
     resume: str | Path | None = None,
     progress_bar: bool = True,
     verbose: int = 0,
+    time_limit_s: float | None = None,
 ):
     """Train per ``config`` into the run folder ``out`` and return the model.
 
     With ``resume`` (a checkpoint or model zip) training continues from that model's step count
-    until ``config.total_timesteps`` in all.
+    until ``config.total_timesteps`` in all. With ``time_limit_s`` training stops after that
+    much wall time, then saves as if finished.
     """
     require_rl()
     os.environ["NUMBA_NUM_THREADS"] = "1"  # workers share few cores: no nested thread pools
+    check_device(config.device)
+    set_torch_threads(config.torch_threads)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_run_info(config, out)
@@ -74,16 +76,39 @@ def train(
             warnings.filterwarnings("ignore", "Training and eval env are not of the same type")
             model.learn(
                 remaining,
-                callback=_callbacks(config, out, eval_env, verbose),
+                callback=_callbacks(config, out, eval_env, verbose, time_limit_s),
                 reset_num_timesteps=resume is None,
                 progress_bar=progress_bar,
             )
         model.save(out / FINAL_MODEL)
+        plot_learning_curve(out)
     finally:
         envs.close()
         if eval_env is not None:
             eval_env.close()
     return model
+
+
+def check_device(device: str) -> None:
+    """Raise :class:`ConfigError` for ``device = "cuda"`` when torch sees no CUDA device (SB3
+    would train on the CPU without a word)."""
+    import torch
+
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ConfigError(
+            f"device: cuda requested, but torch {torch.__version__} sees no CUDA device; "
+            "install a CUDA build of torch, or train with --device cpu (or auto)."
+        )
+
+
+def set_torch_threads(threads: int) -> None:
+    """Give torch ``threads`` intra-op threads (0: one per core this process may run on)."""
+    import torch
+
+    if not threads:
+        affinity = getattr(os, "sched_getaffinity", None)  # Linux only
+        threads = len(affinity(0)) if affinity else os.cpu_count() or 1
+    torch.set_num_threads(threads)
 
 
 def make_vec_env(config: TrainConfig, seed_offset: int = 0):
@@ -248,10 +273,16 @@ def _logger(out: Path, verbose: int):
     return configure(str(logs / f"run-{k}"), formats)
 
 
-def _callbacks(config: TrainConfig, out: Path, eval_env, verbose: int) -> list:
+def _callbacks(
+    config: TrainConfig, out: Path, eval_env, verbose: int, time_limit_s: float | None = None
+) -> list:
     from stable_baselines3.common.callbacks import CheckpointCallback
 
-    callbacks = []
+    from nbv_gym.rl.callbacks import EpisodeLog, TimeLimit
+
+    callbacks = [EpisodeLog(out / EPISODES_CSV)]
+    if time_limit_s is not None:
+        callbacks.append(TimeLimit(time_limit_s))
     if config.checkpoint_every_steps:
         callbacks.append(
             CheckpointCallback(

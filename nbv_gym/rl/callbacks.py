@@ -1,0 +1,129 @@
+"""Training callbacks of ``nbv-gym train`` (the episode log behind the learning curve, a
+wall-clock limit) and the timers of the RL bench suite (:mod:`nbv_gym.rl.bench`)."""
+
+from __future__ import annotations
+
+import csv
+import time
+from pathlib import Path
+
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.vec_env import VecEnvWrapper
+
+from nbv_gym.rl.curve import COLUMNS
+
+
+class EpisodeLog(BaseCallback):
+    """Appends a row to ``path`` (``episodes.csv``) for every training episode that ends; the
+    rows are flushed at the end of every rollout."""
+
+    def __init__(self, path: Path):
+        super().__init__()
+        self.path = Path(path)
+        self._file = None
+        self._writer = None
+
+    def _on_training_start(self) -> None:
+        new = not self.path.exists()
+        self._file = open(self.path, "a", newline="")
+        self._writer = csv.writer(self._file)
+        if new:
+            self._writer.writerow(COLUMNS)
+
+    def _on_step(self) -> bool:
+        for info in self.locals["infos"]:
+            if "episode" in info:
+                self._writer.writerow(episode_row(self.num_timesteps, info))
+        return True
+
+    def _on_rollout_end(self) -> None:
+        self._file.flush()
+
+    def _on_training_end(self) -> None:
+        self._file.close()
+
+
+def episode_row(timesteps: int, info: dict) -> list:
+    """The ``episodes.csv`` row of an episode that ended with ``info`` (SB3's ``Monitor``
+    statistics in ``info["episode"]``, the environment's last info otherwise)."""
+    episode = info["episode"]
+    return [
+        timesteps,
+        info.get("world", ""),
+        f"{float(episode['r']):.6g}",
+        int(episode["l"]),
+        f"{float(info['q']):.6g}",
+        f"{float(info['discovered']):.6g}",
+        f"{float(info['path_length_m']):.6g}",
+    ]
+
+
+class TimeLimit(BaseCallback):
+    """Stops training once ``limit_s`` seconds of wall time have passed since it started (the
+    run then ends as if finished: final model and learning curve saved)."""
+
+    def __init__(self, limit_s: float):
+        super().__init__()
+        self.limit_s = limit_s
+        self._start = 0.0
+
+    def _on_training_start(self) -> None:
+        self._start = time.perf_counter()
+
+    def _on_step(self) -> bool:
+        return time.perf_counter() - self._start < self.limit_s
+
+
+class TimedVecEnv(VecEnvWrapper):
+    """A ``VecEnv`` that adds the wall time of every call into its environments to
+    ``seconds``."""
+
+    def __init__(self, venv):
+        super().__init__(venv)
+        self.seconds = 0.0
+
+    def _timed(self, call, *args, **kwargs):
+        start = time.perf_counter()
+        try:
+            return call(*args, **kwargs)
+        finally:
+            self.seconds += time.perf_counter() - start
+
+    def reset(self):
+        return self._timed(self.venv.reset)
+
+    def step_async(self, actions) -> None:
+        self._timed(self.venv.step_async, actions)
+
+    def step_wait(self):
+        return self._timed(self.venv.step_wait)
+
+    def env_method(self, method_name: str, *args, indices=None, **kwargs):
+        return self._timed(self.venv.env_method, method_name, *args, indices=indices, **kwargs)
+
+
+class PhaseTimer(BaseCallback):
+    """Wall seconds of the rollouts (``rollout_s``) and of the updates between and after them
+    (``update_s``) of one ``learn`` call."""
+
+    def __init__(self):
+        super().__init__()
+        self.rollout_s = self.update_s = 0.0
+        self._mark: float | None = None
+
+    def _on_rollout_start(self) -> None:
+        now = time.perf_counter()
+        if self._mark is not None:  # an update ran since the last rollout ended
+            self.update_s += now - self._mark
+        self._mark = now
+
+    def _on_rollout_end(self) -> None:
+        now = time.perf_counter()
+        self.rollout_s += now - self._mark
+        self._mark = now
+
+    def _on_training_end(self) -> None:
+        self.update_s += time.perf_counter() - self._mark
+
+    def _on_step(self) -> bool:
+        return True

@@ -1,0 +1,138 @@
+"""``nbv-gym train``'s run folder on a tiny world: the CLI options, the episode log and the
+learning curve, the model file's size, the time limit, and the lean goal-map network."""
+
+from __future__ import annotations
+
+import csv
+import json
+import zipfile
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import tomllib
+
+th = pytest.importorskip("torch")
+pytest.importorskip("sb3_contrib")
+
+from typer.testing import CliRunner  # noqa: E402
+
+from nbv_gym.cli import app  # noqa: E402
+from nbv_gym.errors import ConfigError  # noqa: E402
+from nbv_gym.rl.config import LearningConfig, TrainConfig  # noqa: E402
+from nbv_gym.rl.curve import moving_mean  # noqa: E402
+from nbv_gym.rl.train import check_device, policy_setup, train  # noqa: E402
+
+BUDGET = 4
+STEPS = 32
+#: The issue's bound on a committed model.
+MAX_MODEL_BYTES = 5_000_000
+
+
+@pytest.fixture(scope="module")
+def config_file(world, tmp_path_factory):
+    path = tmp_path_factory.mktemp("configs") / "tiny.toml"
+    path.write_text(
+        f"train_worlds = [{json.dumps(world)}]\neval_worlds = [{json.dumps(world)}]\n"
+        f"max_steps = {BUDGET}\neval_every_steps = 0\n"
+        "checkpoint_every_steps = 0\n"
+        "[learning]\nn_steps = 16\nbatch_size = 16\nn_epochs = 1\n"
+    )
+    return path
+
+
+@pytest.fixture(scope="module")
+def cli_run(config_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "cli"
+    options = ["--timesteps", str(STEPS), "--n-envs", "1", "--device", "cpu", "--no-progress"]
+    result = CliRunner().invoke(
+        app, ["train", "--config", str(config_file), *options, "--out", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_cli_options_reach_the_saved_config(cli_run):
+    saved = tomllib.loads((cli_run / "config.toml").read_text())
+    assert (saved["total_timesteps"], saved["n_envs"], saved["device"]) == (STEPS, 1, "cpu")
+
+
+def test_every_budget_episode_is_logged_with_its_end(cli_run):
+    """The budget task never ends early: one environment logs an episode every BUDGET steps."""
+    with open(cli_run / "episodes.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert [int(r["timesteps"]) for r in rows] == list(range(BUDGET, STEPS + 1, BUDGET))
+    assert {int(r["length"]) for r in rows} == {BUDGET}
+    assert all(0 < float(r["q"]) <= 1 and 0 < float(r["discovered"]) <= 1 for r in rows)
+    assert {r["world"] for r in rows} == {"tiny-cuboids"}
+
+
+def test_learning_curve_is_a_png(cli_run):
+    from matplotlib.image import imread
+
+    image = imread(cli_run / "learning_curve.png")
+    assert image.ndim == 3 and image.shape[1] == 12 * 120  # 12 in at 120 dpi
+
+
+def test_default_network_model_file_is_small_and_keeps_no_observations(cli_run):
+    path = cli_run / "final_model.zip"
+    with zipfile.ZipFile(path) as archive:
+        data = json.loads(archive.read("data"))
+    assert "_last_obs" not in data and "observation_space" in data
+    assert path.stat().st_size <= MAX_MODEL_BYTES
+
+
+def test_time_limit_stops_training_and_still_saves(world, tmp_path):
+    config = TrainConfig(
+        total_timesteps=1_000,
+        n_envs=1,
+        train_worlds=(world,),
+        eval_worlds=(),
+        max_steps=BUDGET,
+        learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
+        checkpoint_every_steps=0,
+        eval_every_steps=0,
+    )
+    model = train(config, tmp_path, progress_bar=False, time_limit_s=0.0)
+    assert model.num_timesteps == 1  # the first step's callback stops it
+    assert (tmp_path / "final_model.zip").exists() and (tmp_path / "learning_curve.png").exists()
+
+
+@pytest.mark.skipif(th.cuda.is_available(), reason="this machine has a CUDA device")
+def test_cuda_without_a_cuda_device_is_refused():
+    with pytest.raises(ConfigError, match="device: cuda requested, but torch .* no CUDA device"):
+        check_device("cuda")
+
+
+def test_moving_mean_by_hand():
+    assert moving_mean(np.array([1.0, 2.0, 3.0, 4.0]), window=2).tolist() == [1, 1.5, 2.5, 3.5]
+    assert moving_mean(np.array([2.0, 4.0]), window=5).tolist() == [2, 3]
+
+
+def goal_map_policy():
+    from gymnasium import spaces
+
+    from nbv_gym.env.observation import BASE_LAYERS
+
+    layers = {k: spaces.Box(0.0, 1.0, (3600,), np.float32) for k in BASE_LAYERS}
+    space = spaces.Dict({**layers, "state": spaces.Box(-2.0, 2.0, (6,), np.float32)})
+    cls, kwargs = policy_setup(TrainConfig())
+    return cls(space, spaces.Discrete(3600), lambda _: 1e-3, **kwargs)
+
+
+def test_goal_map_critic_reads_the_global_features_only():
+    policy = goal_map_policy()
+    features = th.randn(2, 3600 + TrainConfig().features_dim)
+    other = features.clone()
+    other[:, :3600] = th.randn(2, 3600)  # other goal scores, same global features
+    heads = policy.mlp_extractor
+    assert th.equal(heads.forward_critic(features), heads.forward_critic(other))
+    assert th.equal(heads.forward_actor(features), features)
+
+
+def test_goal_map_network_is_lean():
+    """No dense 3600-wide layer: about 0.1 M parameters in all."""
+    policy = goal_map_policy()
+    assert sum(p.numel() for p in policy.parameters()) < 150_000
+    dense = replace(TrainConfig(), network="dense")
+    assert policy_setup(dense)[0] == "MultiInputPolicy"

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -50,14 +51,22 @@ class Policy(Protocol):
 #: Prefix of a trained stable-baselines3 model: ``"sb3:runs/ppo/best_model.zip"``.
 SB3_PREFIX = "sb3:"
 
+#: Trained agents shipped in ``baselines/models/``: short name → model file. ``"ppo-budget"``
+#: is the reference agent (``experiments/ppo.toml``: MaskablePPO on ``random:mixed`` under the
+#: budget task); its config and learning curve lie beside it.
+MODELS: dict[str, str] = {"ppo-budget": "ppo-budget.zip"}
+
 #: Registered name prefixes → ``module:Class`` built from the rest of the name (a path).
 PREFIXES: dict[str, str] = {SB3_PREFIX: "nbv_gym.rl.agent:SB3Policy"}
 
 
 def load_policy(name: str, **kwargs: Any) -> Policy:
-    """A new policy from a registered name (``"closest-frontier"``), ``"module:Class"`` or
-    ``"sb3:PATH"`` (a model saved by ``nbv-gym train``); ``kwargs`` go to the class's
-    constructor. A registered NBV name may fix its visibility model: ``"nbv-nobs@fov"``."""
+    """A new policy from a registered name (``"closest-frontier"``), ``"module:Class"``,
+    ``"sb3:PATH"`` (a model saved by ``nbv-gym train``) or a shipped model's name
+    (:data:`MODELS`); ``kwargs`` go to the class's constructor. A registered NBV name may fix
+    its visibility model: ``"nbv-nobs@fov"``."""
+    if name in MODELS:
+        name = SB3_PREFIX + str(model_path(name))
     for prefix, target in PREFIXES.items():
         if name.startswith(prefix):
             return _import_class(target, name)(name[len(prefix) :], **kwargs)
@@ -79,6 +88,13 @@ def load_policy(name: str, **kwargs: Any) -> Policy:
             f"{' and '.join(missing)}(). A policy needs reset(seed) and act(observation, info)."
         )
     return policy
+
+
+def model_path(name: str) -> Path:
+    """The file of the shipped model ``name`` (:data:`MODELS`) in ``baselines/models/``."""
+    import baselines
+
+    return Path(baselines.__path__[0]) / "models" / MODELS[name]
 
 
 def required_layers(policy: object) -> tuple[str, ...]:

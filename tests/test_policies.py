@@ -101,3 +101,12 @@ def test_an_nbv_name_may_fix_its_visibility_model():
         load_policy("nbv-sigma@sky")
     env = make_env(EnvConfig(), policy)
     assert env.config.nbv.visibility == "fov" and "gain_sigma" in env.config.observation_layers
+
+
+def test_a_shipped_model_name_is_its_sb3_file(monkeypatch):
+    from nbv_gym.policies import MODELS, model_path
+
+    assert model_path("ppo-budget").parts[-3:] == ("baselines", "models", "ppo-budget.zip")
+    monkeypatch.setitem(MODELS, "missing-model", "missing-model.zip")
+    with pytest.raises(PolicyError, match=r"No SB3 model at .*baselines/models/missing-model\.zip"):
+        load_policy("missing-model")

@@ -245,9 +245,9 @@ def _toml_value(value: Any) -> str:
 
 
 def _check_policy_name(name: str, key: str) -> None:
-    from nbv_gym.policies import POLICIES
+    from nbv_gym.policies import MODELS, POLICIES
 
-    if name.partition("@")[0] not in POLICIES and ":" not in name:
+    if name.partition("@")[0] not in POLICIES and name not in MODELS and ":" not in name:
         try:
             raise UnknownNameError("policy", name, POLICIES)
         except UnknownNameError as error:

@@ -140,3 +140,10 @@ def test_cli_rejects_a_malformed_config_with_exit_code_2(tmp_path):
     assert result.returncode == 2
     assert "Unknown key repeat" in result.stderr and "Traceback" not in result.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_rl_eval_config_is_the_budget_comparison_of_issue_14():
+    config = load_sweep_config(EXPERIMENTS / "rl-eval.toml")
+    assert len(config.runs()) == 12 * 1 * 8 * 3
+    assert config.task == "budget" and config.noise == (1,)
+    assert set(config.policies) == {*PAPER_POLICIES, "ppo-budget"}

@@ -45,8 +45,10 @@ def mutated_data(draw) -> bytes:
     """``DATA`` with a few readable fields replaced by random JSON or text, or dropped."""
     data = json.loads(json.dumps(DATA))
     for _ in range(draw(st.integers(1, 3))):
+        if not data:
+            break
         entry = draw(st.sampled_from(sorted(data)))
-        if isinstance(data[entry], dict) and draw(st.booleans()):
+        if isinstance(data[entry], dict) and data[entry] and draw(st.booleans()):
             field = draw(st.sampled_from(sorted(data[entry])))
             data[entry][field] = draw(st.one_of(TEXT, JSON))
         elif draw(st.booleans()):

@@ -35,7 +35,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
 
     os.environ["NUMBA_NUM_THREADS"] = "1"
     config = replace(TrainConfig(), train_worlds=(WORLD,), eval_worlds=())
-    set_torch_threads(config.torch_threads)
+    set_torch_threads(config.torch_threads, config.n_envs)
     per_update = config.learning.n_steps * config.n_envs
     envs = TimedVecEnv(make_vec_env(config))
     try:

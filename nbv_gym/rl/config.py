@@ -32,9 +32,9 @@ class LearningConfig:
 
     ``n_steps`` is per environment: one update sees ``n_steps · n_envs`` steps. ``batch_size``,
     ``n_epochs`` and ``clip_range`` are PPO's only. The defaults are lean: 4 epochs of batches
-    of 256 make an update cost about as much as collecting its steps on 2 cores (10 epochs of
-    64 cost 3 times more, ``nbv-gym bench --suite rl``), and the gradient steps per environment
-    step (``n_epochs / batch_size``) do not depend on ``n_envs``.
+    of 256 cost about 3 times less per environment step than 10 epochs of 64 (same network),
+    and the gradient steps per environment step (``n_epochs / batch_size``) do not depend on
+    ``n_envs``.
     """
 
     n_steps: int = 128
@@ -83,7 +83,8 @@ class TrainConfig:
     - ``features_dim``: size of the global feature vector (CNN + robot state).
     - ``checkpoint_every_steps`` / ``eval_every_steps``: in environment steps (0 disables); an
       evaluation runs ``eval_episodes`` episodes in the training process, one at a time.
-    - ``torch_threads``: the learner's torch threads (0: one per core it may run on).
+    - ``torch_threads``: the learner's torch threads (0: one per core no environment worker
+      runs on, at least one).
     - ``seed``: seeds the learner and the environments (episode ``k`` of env ``i`` derives its
       seed from it).
     """
@@ -141,7 +142,7 @@ class TrainConfig:
         check(self.eval_every_steps >= 0, "eval_every_steps", "must be ≥ 0")
         check(self.eval_episodes >= 0, "eval_episodes", "must be ≥ 0")
         check(self.device in ("cpu", "cuda", "auto"), "device", "expected cpu, cuda or auto")
-        check(self.torch_threads >= 0, "torch_threads", "must be ≥ 0 (0: one per core)")
+        check(self.torch_threads >= 0, "torch_threads", "must be ≥ 0 (0: one per free core)")
 
     @property
     def n_eval_episodes(self) -> int:

@@ -57,7 +57,7 @@ def train(
     require_rl()
     os.environ["NUMBA_NUM_THREADS"] = "1"  # workers share few cores: no nested thread pools
     check_device(config.device)
-    set_torch_threads(config.torch_threads)
+    set_torch_threads(config.torch_threads, config.n_envs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_run_info(config, out)
@@ -101,13 +101,17 @@ def check_device(device: str) -> None:
         )
 
 
-def set_torch_threads(threads: int) -> None:
-    """Give torch ``threads`` intra-op threads (0: one per core this process may run on)."""
+def set_torch_threads(threads: int, n_envs: int) -> None:
+    """Give torch ``threads`` intra-op threads; 0: one per core that no environment worker
+    runs on (at least one). More threads than free cores make OpenMP wait for descheduled
+    threads: on a busy 2-core machine 2 threads made the policy's forward passes 10 times
+    slower than 1 (``nbv-gym bench --suite rl``)."""
     import torch
 
     if not threads:
         affinity = getattr(os, "sched_getaffinity", None)  # Linux only
-        threads = len(affinity(0)) if affinity else os.cpu_count() or 1
+        cores = len(affinity(0)) if affinity else os.cpu_count() or 1
+        threads = max(1, cores - (n_envs if n_envs > 1 else 0))
     torch.set_num_threads(threads)
 
 

@@ -136,3 +136,16 @@ def test_goal_map_network_is_lean():
     assert sum(p.numel() for p in policy.parameters()) < 150_000
     dense = replace(TrainConfig(), network="dense")
     assert policy_setup(dense)[0] == "MultiInputPolicy"
+
+
+def test_torch_threads_explicit_or_one_per_free_core():
+    from nbv_gym.rl.train import set_torch_threads
+
+    before = th.get_num_threads()
+    try:
+        set_torch_threads(3, n_envs=2)
+        assert th.get_num_threads() == 3
+        set_torch_threads(0, n_envs=10_000)  # more environments than cores
+        assert th.get_num_threads() == 1
+    finally:
+        th.set_num_threads(before)

@@ -335,7 +335,10 @@ class ResultStore:
         paths = {name: self.root / f"{name}.{ext}" for name, ext in _TABLES}
         _write_together(
             {
-                paths["cuboids"]: ("wb", lambda f: self._write_cuboids(f, runs[runs["status"] == "ok"])),
+                paths["cuboids"]: (
+                    "wb",
+                    lambda f: self._write_cuboids(f, runs[runs["status"] == "ok"]),
+                ),
                 paths["runs"]: ("w", lambda f: runs.to_csv(f, index=False)),
                 paths["steps"]: ("w", lambda f: steps.to_csv(f, index=False)),
             }
@@ -504,7 +507,9 @@ def _read_failure(path: Path) -> dict[str, Any]:
         raise CorruptFileError("is not a failure record (no 'attempts' list)")
     missing = [k for k in ("key", "world", "noise", "policy", "repeat", "seed") if k not in record]
     if missing or not all(isinstance(a, dict) for a in attempts):
-        raise CorruptFileError(f"is not a failure record (lacks {', '.join(missing) or 'attempts'})")
+        raise CorruptFileError(
+            f"is not a failure record (lacks {', '.join(missing) or 'attempts'})"
+        )
     return record
 
 
@@ -536,7 +541,9 @@ def _cuboids_path(run_path: Path) -> Path:
 
 
 def _stem_of_row(run: dict[str, Any]) -> str:
-    spec = RunSpec(run["world"], run["world"], int(run["noise"]), run["policy"], int(run["repeat"]), 0)
+    spec = RunSpec(
+        run["world"], run["world"], int(run["noise"]), run["policy"], int(run["repeat"]), 0
+    )
     return spec.file_stem
 
 

@@ -134,7 +134,9 @@ def worlds_preview(
 
 @app.command()
 def run(
-    world: Annotated[str, typer.Option(help="World name or spec file.")] = "pp1-trees",
+    world: Annotated[
+        str | None, typer.Option(help="World name or spec file [default: the config's world].")
+    ] = None,
     policy: Annotated[
         str,
         typer.Option(
@@ -142,9 +144,13 @@ def run(
             "files (a model zip is a pickle): use only ones you trust."
         ),
     ] = "closest-frontier",
-    noise: Annotated[int, typer.Option(help="Localisation-noise level 0, 1 or 2.")] = 1,
+    noise: Annotated[
+        int | None, typer.Option(help="Localisation-noise level 0, 1 or 2 [default: the config's].")
+    ] = None,
     seed: Annotated[int, typer.Option(help="Episode seed.")] = 0,
-    max_steps: Annotated[int, typer.Option(help="Truncate after this many steps.")] = 100,
+    max_steps: Annotated[
+        int | None, typer.Option(help="Truncate after this many steps [default: the config's].")
+    ] = None,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
 ) -> None:
@@ -163,6 +169,8 @@ def run(
           --no-animation
     """
 
+    from dataclasses import replace
+
     from nbv_gym.config import check
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import clear_run_folder, make_env, run_episode, write_run_folder
@@ -172,9 +180,11 @@ def run(
 
     check(seed >= 0, "--seed", f"must be ≥ 0, got {seed}")
     agent = load_policy(policy)
-    simulator = SimulatorConfig(
-        world=world, noise=noise, episode=EpisodeConfig(max_steps=max_steps)
-    )
+    given = {"world": world, "noise": noise}
+    simulator = replace(SimulatorConfig(), **{k: v for k, v in given.items() if v is not None})
+    if max_steps is not None:
+        simulator = replace(simulator, episode=EpisodeConfig(max_steps=max_steps))
+    world, noise = simulator.world, simulator.noise
     env = make_env(EnvConfig(simulator), agent, render=animation)
     clear_run_folder(writable_folder(out))
     frames = []

@@ -16,7 +16,6 @@ The last three add up to ``1000 / train_steps_per_s`` (up to SB3's bookkeeping b
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -33,7 +32,6 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     require_rl()
     from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv
 
-    os.environ["NUMBA_NUM_THREADS"] = "1"
     config = replace(TrainConfig(), train_worlds=(WORLD,), eval_worlds=())
     set_torch_threads(config.torch_threads, config.n_envs)
     per_update = config.learning.n_steps * config.n_envs

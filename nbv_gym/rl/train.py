@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import platform
 import warnings
+from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -55,7 +56,6 @@ def train(
     much wall time, then saves as if finished.
     """
     require_rl()
-    os.environ["NUMBA_NUM_THREADS"] = "1"  # workers share few cores: no nested thread pools
     check_device(config.device)
     set_torch_threads(config.torch_threads, config.n_envs)
     out = Path(out)
@@ -128,9 +128,26 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     if config.n_envs == 1:
         envs = DummyVecEnv(factories)
     else:
-        envs = SubprocVecEnv(factories, start_method="forkserver")
+        with _environment(NUMBA_NUM_THREADS="1"):  # workers share few cores: no nested pools
+            envs = SubprocVecEnv(factories, start_method="forkserver")
     envs.seed(config.seed + seed_offset)
     return envs
+
+
+@contextmanager
+def _environment(**values: str):
+    """Set environment variables for the processes started inside, then restore them: numba
+    refuses a changed NUMBA_NUM_THREADS in a process whose threads have started."""
+    before = {name: os.environ.get(name) for name in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def make_eval_env(config: TrainConfig):

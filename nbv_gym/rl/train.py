@@ -12,7 +12,6 @@ from __future__ import annotations
 import os
 import platform
 import warnings
-from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -121,6 +120,8 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     than environments), in subprocesses when ``n_envs`` > 1."""
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
+    from nbv_gym.sweep.worker import worker_environment
+
     factories = [
         partial(_env_factory, config, _share(config.train_worlds, i, config.n_envs))
         for i in range(config.n_envs)
@@ -128,26 +129,11 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     if config.n_envs == 1:
         envs = DummyVecEnv(factories)
     else:
-        with _environment(NUMBA_NUM_THREADS="1"):  # workers share few cores: no nested pools
+        with worker_environment():  # workers share few cores: no nested thread pools
             envs = SubprocVecEnv(factories, start_method="forkserver")
     envs.seed(config.seed + seed_offset)
     return envs
 
-
-@contextmanager
-def _environment(**values: str):
-    """Set environment variables for the processes started inside, then restore them: numba
-    refuses a changed NUMBA_NUM_THREADS in a process whose threads have started."""
-    before = {name: os.environ.get(name) for name in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for name, value in before.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
 
 
 def make_eval_env(config: TrainConfig):

@@ -30,6 +30,7 @@ from nbv_gym.sweep.worker import (
     failure,
     serve,
     timed_out,
+    worker_environment,
 )
 
 
@@ -87,7 +88,7 @@ class PoolBackend:
         )
         self._slots: list[_Slot] = []
         self._alive = None  # (read end, write end) of the pipe that tells workers we live
-        self._environment = _worker_environment()
+        self._environment = worker_environment()
         self._environment.__enter__()
 
     @property
@@ -354,18 +355,3 @@ def client_security(scheduler: str):
             )
     return Security(require_encryption=True)
 
-
-@contextlib.contextmanager
-def _worker_environment():
-    """Put :data:`WORKER_ENVIRONMENT` into ``os.environ`` while the pool lives (worker processes
-    inherit it when they start) and restore the previous values afterwards."""
-    previous = {name: os.environ.get(name) for name in WORKER_ENVIRONMENT}
-    os.environ.update(WORKER_ENVIRONMENT)
-    try:
-        yield
-    finally:
-        for name, value in previous.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value

@@ -193,6 +193,18 @@ def test_render_draws_a_picture(env):
     assert len(np.unique(image.reshape(-1, 3), axis=0)) > 50  # a picture, not a blank
 
 
+def test_a_kept_frame_holds_no_memory_beyond_its_pixels():
+    """``nbv-gym run`` keeps one frame per step for the animation (issue 15, defect 14: views
+    of larger buffers kept 4× their size alive): a frame must own exactly its pixels."""
+    environment = ExploreEnv("rgb_array", world=WORLD, max_steps=3)
+    environment.reset(seed=0)
+    image = environment.render()
+    owner = image
+    while isinstance(owner.base, np.ndarray):
+        owner = owner.base
+    assert owner.nbytes == image.nbytes == image.shape[0] * image.shape[1] * 3
+
+
 def test_unknown_observation_layer_is_refused():
     from nbv_gym.errors import ConfigError
 

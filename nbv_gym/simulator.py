@@ -302,7 +302,8 @@ class Simulator:
             mapping.statistics.cell_m,
             mapping.map.p_clamp_min,
         )
-        return QualityTracker(world.ground_truth.occupancy(self.voxel_grid), config)
+        voxels = world.ground_truth.grid_voxels(self.voxel_grid)
+        return QualityTracker.from_voxels(voxels, self.voxel_grid.shape, config)
 
 
 def _refine(grid: GridSpec, res: float) -> GridSpec:

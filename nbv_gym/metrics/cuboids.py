@@ -346,16 +346,32 @@ class QualityTracker:
     """
 
     def __init__(self, gt: BoolArray, config: CuboidConfig | None = None):
-        self.config = config or CuboidConfig()
         gt = np.asarray(gt)
         if gt.dtype != bool:
             raise MetricInputError(f"ground truth must be a bool grid, got {gt.dtype}")
+        self._build(np.argwhere(gt), gt.shape, config)
+
+    @classmethod
+    def from_voxels(
+        cls, voxels: IntArray, grid_shape: tuple[int, int, int], config: CuboidConfig | None = None
+    ) -> QualityTracker:
+        """The tracker of the ground truth whose occupied voxels are ``voxels`` (k, 3) int
+        indices into a grid of ``grid_shape``, unique and in C order (as ``np.argwhere`` lists
+        them): the same tracker as ``QualityTracker(gt)``, without the dense grid (a world
+        switch builds one per world)."""
+        tracker = cls.__new__(cls)
+        tracker._build(_checked_voxels(voxels, grid_shape), tuple(grid_shape), config)
+        return tracker
+
+    def _build(self, voxels: IntArray, grid_shape: tuple[int, ...], config) -> None:
+        """Set up from the (k, 3) occupied ``voxels`` (C order) of a grid of ``grid_shape``."""
+        self.config = config or CuboidConfig()
         n = self.config.cuboid_voxels
-        self.grid_shape = gt.shape
-        self.shape = cuboid_shape(gt.shape, n)
-        self.u_occ = occupied_cuboids(gt, n)
+        self.grid_shape = grid_shape
+        self.shape = cuboid_shape(grid_shape, n)
+        self._gt_start, self._gt_voxels = _ground_truth_lists(voxels, self.shape, n)
+        self.u_occ = (np.diff(self._gt_start) > 0).reshape(self.shape)  # = occupied_cuboids
         self.volume = comparison_volume(self.u_occ, self.config.volume)
-        self._gt_start, self._gt_voxels = _ground_truth_lists(gt, n)
         self._offsets, self._offset_d2 = _stencil(self.config)
         self._thresholds = np.array([p for p, _ in self.config.cov_settings])
         self._radius2 = np.array(
@@ -457,10 +473,29 @@ def _stencil(config: CuboidConfig) -> tuple[IntArray, FloatArray]:
     return offsets[order], d2[order]
 
 
-def _ground_truth_lists(gt: BoolArray, n: int) -> tuple[IntArray, IntArray]:
-    """CSR lists of occupied ground-truth voxels per cuboid: ``start`` (cuboids + 1,), ``voxels`` (k, 3)."""
-    cx, cy, cz = cuboid_shape(gt.shape, n)
-    voxels = np.argwhere(gt).astype(np.int64)
+def _checked_voxels(voxels: IntArray, grid_shape: tuple[int, ...]) -> IntArray:
+    """(k, 3) int64 ``voxels``, checked to be unique indices into ``grid_shape`` in C order."""
+    voxels = np.asarray(voxels)
+    if voxels.ndim != 2 or voxels.shape[1] != 3 or voxels.dtype.kind not in "iu":
+        raise MetricInputError(
+            f"occupied voxels must be (k, 3) integer indices, got {voxels.dtype} {voxels.shape}"
+        )
+    voxels = voxels.astype(np.int64, copy=False)
+    if not np.all((voxels >= 0) & (voxels < np.asarray(grid_shape))):
+        raise MetricInputError(f"occupied voxels must lie in the grid of shape {grid_shape}")
+    if np.any(np.diff(np.ravel_multi_index(tuple(voxels.T), grid_shape)) <= 0):
+        raise MetricInputError(
+            "occupied voxels must be unique and in C order, as np.argwhere lists them "
+            "(np.unique(voxels, axis=0) sorts them)"
+        )
+    return voxels
+
+
+def _ground_truth_lists(voxels: IntArray, shape: tuple[int, int, int], n: int):
+    """CSR lists of the occupied ground-truth ``voxels`` (k, 3) int (C order) per cuboid of the
+    cuboid grid ``shape``: ``start`` (cuboids + 1,) int64, ``voxels`` (k, 3) int64."""
+    cx, cy, cz = shape
+    voxels = np.asarray(voxels, np.int64)
     owner = (
         np.ravel_multi_index(tuple((voxels // n).T), (cx, cy, cz))
         if len(voxels)

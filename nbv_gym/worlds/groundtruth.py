@@ -38,17 +38,22 @@ class GroundTruth:
     def occupancy(self, grid: GridSpec) -> BoolArray:
         """Bool array of ``grid.shape``: which cells of ``grid`` are occupied. ``grid`` must have
         this ground truth's resolution and lie on its lattice."""
+        grid_mask = np.zeros(grid.shape, dtype=bool)
+        grid_mask[tuple(self.grid_voxels(grid).T)] = True
+        return grid_mask
+
+    def grid_voxels(self, grid: GridSpec) -> IntArray:
+        """(k, 3) int64 indices into ``grid`` of its occupied cells, in C order — what
+        ``np.argwhere(self.occupancy(grid))`` gives, without the dense grid. ``grid`` must have
+        this ground truth's resolution and lie on its lattice."""
         offset = np.asarray(grid.origin) / self.res
         if not np.isclose(grid.res, self.res) or not np.allclose(offset, np.rint(offset)):
             raise ConfigError(
                 f"Grid (origin {grid.origin}, res {grid.res} m) does not lie on the ground "
                 f"truth's {self.res} m lattice: use that res and an origin on its multiples."
             )
-        index = self.voxels - np.rint(offset).astype(np.int64)
-        inside = grid.contains(index)
-        grid_mask = np.zeros(grid.shape, dtype=bool)
-        grid_mask[tuple(index[inside].T)] = True
-        return grid_mask
+        index = self.voxels - np.rint(offset).astype(np.int64)  # sorted rows stay sorted
+        return index[grid.contains(index)]
 
 
 def surface_voxels(vertices: FloatArray, faces: IntArray, res: float) -> GroundTruth:

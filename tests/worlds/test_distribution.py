@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from dataclasses import astuple
 
 import numpy as np
 import pytest
 
 from nbv_gym.env import ExploreEnv
 from nbv_gym.errors import ConfigError, UnknownNameError
+from nbv_gym.grid import GridSpec
+from nbv_gym.metrics.cuboids import QualityTracker
+from nbv_gym.simulator import Simulator
 from nbv_gym.worlds import ASSET_TYPES, benchmark_names, cache_dir, load_spec
 from nbv_gym.worlds.distribution import (
     FIRST_SEED,
@@ -18,6 +22,8 @@ from nbv_gym.worlds.distribution import (
     distribution_names,
     is_distribution,
 )
+from nbv_gym.worlds.groundtruth import surface_voxels
+from nbv_gym.worlds.world import GROUND_TRUTH_RES_M
 
 POOL = 4
 
@@ -124,3 +130,44 @@ def test_memory_stays_flat_across_worlds():
         ).stdout.split(),
     )
     assert last - first < 64, f"RSS grew from {first:.0f} to {last:.0f} MiB over 5 worlds"
+
+
+def episode(simulator: Simulator, seed: int, steps: int = 3) -> list:
+    """Scan ranges, touched cells, reward and quality of a reset and ``steps`` first-valid steps."""
+    outcomes = [simulator.reset(seed)]
+    for _ in range(steps):
+        outcomes.append(simulator.step(int(np.flatnonzero(simulator.goal_mask())[0])))
+    return [(o.scan.ranges.tobytes(), o.touched.tobytes(), o.reward, o.quality) for o in outcomes]
+
+
+def test_switching_back_to_a_world_gives_a_fresh_simulators_episode():
+    pool = WorldDistribution("cuboids", POOL)
+    simulator = Simulator(world=pool.world(0))
+    simulator.set_world(pool.world(1))
+    episode(simulator, seed=7)
+    simulator.set_world(pool.world(0))
+    np.testing.assert_equal(episode(simulator, 3), episode(Simulator(world=pool.world(0)), 3))
+
+
+def test_a_simulators_ground_truth_is_the_freshly_voxelised_worlds():
+    """The cached world's ground truth, and the quality lists the simulator derives from it at
+    the map's voxels, equal those of a fresh voxelisation of the world's mesh."""
+    world = WorldDistribution("cuboids", POOL).world(1)
+    fresh = surface_voxels(world.vertices, world.faces[: world.asset_faces], GROUND_TRUTH_RES_M)
+    np.testing.assert_array_equal(world.ground_truth.voxels, fresh.voxels)
+    simulator = Simulator(world=world)
+    dense = QualityTracker(fresh.occupancy(simulator.voxel_grid), simulator.quality.config)
+    np.testing.assert_array_equal(simulator.quality.u_occ, dense.u_occ)
+    np.testing.assert_array_equal(simulator.quality.volume, dense.volume)
+    touched = np.flatnonzero(dense.u_occ)[::7]
+    blocks = np.random.default_rng(0).choice(
+        np.float32([0.12, 0.5, 0.9]), (len(touched), 10, 10, 10)
+    )
+    np.testing.assert_equal(
+        astuple(simulator.quality.update_blocks(touched, blocks)),
+        astuple(dense.update_blocks(touched, blocks)),
+    )
+    shifted = GridSpec((-3.0, 2.0, 0.0), GROUND_TRUTH_RES_M, (40, 30, 20))  # another grid
+    np.testing.assert_array_equal(
+        world.ground_truth.grid_voxels(shifted), np.argwhere(fresh.occupancy(shifted))
+    )

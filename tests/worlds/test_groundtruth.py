@@ -10,6 +10,7 @@ import pytest
 from nbv_gym.errors import ConfigError
 from nbv_gym.grid import GridSpec
 from nbv_gym.worlds import shapes, surface_voxels
+from nbv_gym.worlds.groundtruth import GroundTruth
 
 
 def shell(low, high):
@@ -66,3 +67,16 @@ def test_occupancy_refuses_a_grid_off_the_lattice():
         truth.occupancy(GridSpec((0.05, 0.0, 0.0), 0.1, (4, 4, 4)))
     with pytest.raises(ConfigError, match="lattice"):
         truth.occupancy(GridSpec((0.0, 0.0, 0.0), 0.2, (4, 4, 4)))
+
+
+def test_grid_voxels_are_the_occupied_cells_of_the_grid_in_c_order():
+    truth = GroundTruth(np.array([[-1, 0, 0], [0, 0, 0], [0, 3, 1], [2, -5, 0], [4, 1, 2]]), 0.1)
+    np.testing.assert_array_equal(  # (-1, 0, 0), (2, -5, 0) and (4, 1, 2) lie outside
+        truth.grid_voxels(GridSpec((0.0, 0.0, 0.0), 0.1, (4, 4, 4))), [[0, 0, 0], [0, 3, 1]]
+    )
+    np.testing.assert_array_equal(  # one voxel lower in x: (-1, 0, 0) is in, (4, 1, 2) too
+        truth.grid_voxels(GridSpec((-0.1, 0.0, 0.0), 0.1, (6, 4, 4))),
+        [[0, 0, 0], [1, 0, 0], [1, 3, 1], [5, 1, 2]],
+    )
+    with pytest.raises(ConfigError, match="lattice"):
+        truth.grid_voxels(GridSpec((0.05, 0.0, 0.0), 0.1, (4, 4, 4)))

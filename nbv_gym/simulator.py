@@ -138,7 +138,8 @@ class Simulator:
         self.voxel_grid = _refine(self.goal_grid, self.config.mapping.map.resolution_m)
         self.quality = self._quality_tracker(self.world)
         self.goal_centres = self.goal_grid.xy_centres()
-        self._state = ExplorationState.from_config(self.config.mapping)  # reused by every episode
+        band = (self.config.quality.unknown_low, self.config.quality.unknown_high)
+        self._state = ExplorationState.from_config(self.config.mapping, band)  # for every episode
         self.state: ExplorationState | None = None  # the episode's state; None before a reset
         self.rng = np.random.default_rng()
         self.pose = self._start_pose()
@@ -249,10 +250,13 @@ class Simulator:
         )
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
-        """Recompute the metrics of the touched cuboids only, from their map voxels."""
+        """Recompute the metrics of the touched cuboids only: from the map's running totals,
+        and the voxels of those whose coverage must be searched."""
         cells = self.goal_grid.unravel(touched)
-        blocks = self.state.occupancy.probability_blocks(self.goal_grid, cells)
-        return self.quality.update_blocks(touched, blocks)
+        sums, outside = (totals[tuple(cells.T)] for totals in self.state.cell_totals())
+        search = cells[self.quality.needs_coverage(touched, outside)]
+        blocks = self.state.occupancy.probability_blocks(self.goal_grid, search)
+        return self.quality.update_totals(touched, sums, outside, blocks)
 
     def _end(self, discovered: float) -> tuple[bool, bool, str]:
         episode = self.config.episode

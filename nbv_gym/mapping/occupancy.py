@@ -25,6 +25,8 @@ from nbv_gym.arrays import BoolArray, FloatArray
 from nbv_gym.config import check
 from nbv_gym.errors import ConfigError, DataFileError, NbvGymError, PoseError
 from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
+from nbv_gym.mapping.tally import NO_LOG, CellTally
 from nbv_gym.mapping.traversal import TILE, insert_scan, tile_index
 
 _FORMAT = "nbv_gym.OccupancyMap/1"
@@ -146,7 +148,7 @@ class OccupancyMap:
         self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
         self._dirty = np.array([self._tiles_xy, (0, 0)], np.int64)  # x, y tile box written since
         # the last clear(): low (row 0) and high (row 1, exclusive); empty when low ≥ high
-        self._sigmoid_cache = _new_sigmoid_cache()
+        self._sigmoid_cache = new_cache()
 
     @classmethod
     def from_config(cls, config: MapConfig, max_range_m: float) -> OccupancyMap:
@@ -172,7 +174,11 @@ class OccupancyMap:
     # ------------------------------------------------------------------ update
 
     def insert(
-        self, origin: FloatArray, points: FloatArray, region: GridSpec | None = None
+        self,
+        origin: FloatArray,
+        points: FloatArray,
+        region: GridSpec | None = None,
+        tally: CellTally | None = None,
     ) -> ScanUpdate:
         """Insert one scan.
 
@@ -182,6 +188,8 @@ class OccupancyMap:
                 coordinate are dropped and counted.
             region: an optional coarse grid aligned to the map whose cells are whole numbers of
                 voxels (e.g. the statistics grid G); the result's ``touched`` mask is over it.
+            tally: per-cell totals over ``region`` to keep up to date (built for this map when it
+                was empty, cleared with it).
 
         Raises:
             PoseError: the sensor lies outside the map box or is not finite.
@@ -191,10 +199,13 @@ class OccupancyMap:
         finite = np.isfinite(points).all(axis=1)
         points_grid = (points[finite] - self.grid.low) / self.grid.res
         touched, cells = self._touch_grid(region)
+        if tally is not None and tally.sums.shape != touched.shape:
+            raise NbvGymError(f"a tally of {tally.sums.shape} cells needs a region of that shape")
         window = self._window(origin_grid)
         self._mark_dirty(window)
         self._marks[:] = 0
-        n_occupied = insert_scan(
+        log = NO_LOG if tally is None else tally.log
+        n_occupied, n_changes = insert_scan(
             self._store,
             self._dims,
             origin_grid,
@@ -204,9 +215,13 @@ class OccupancyMap:
             self._bounds,
             self._marks,
             window,
-            touched,
+            touched.reshape(-1),
             cells,
+            log,
         )
+        if tally is not None and not tally.apply(n_changes, self._sigmoid_cache):
+            cells = np.argwhere(touched)
+            tally.recount(cells, self.probability_blocks(region, cells))
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)
 
     def clear(self) -> None:
@@ -244,8 +259,8 @@ class OccupancyMap:
         return np.stack([low, np.minimum(self._window_shape, shape - low), self._window_shape])
 
     def _touch_grid(self, region: GridSpec | None) -> tuple[np.ndarray, np.ndarray]:
-        """The empty touched mask over ``region`` and the (3, n) region cell of each voxel index
-        along each axis (−1 outside the region)."""
+        """The empty touched mask over ``region`` and the (3, n) part of the flat region cell
+        index (cell index × stride) of each voxel index along each axis (−1 outside the region)."""
         n = max(self.grid.shape)
         if region is None:
             return np.zeros((0, 0, 0), bool), np.full((3, n), -1, np.int64)
@@ -257,7 +272,9 @@ class OccupancyMap:
                 f"map's {self.grid.res} m voxels and use a whole multiple of that cell size"
             )
         cells = (np.arange(n) - np.rint(offset)[:, None]) // round(factor)
-        cells[(cells < 0) | (cells >= np.asarray(region.shape)[:, None])] = -1
+        outside = (cells < 0) | (cells >= np.asarray(region.shape)[:, None])
+        strides = np.array([region.shape[1] * region.shape[2], region.shape[2], 1])
+        cells = np.where(outside, -1, cells * strides[:, None])
         return np.zeros(region.shape, bool), cells.astype(np.int64)
 
     # ------------------------------------------------------------------ queries
@@ -316,8 +333,9 @@ class OccupancyMap:
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
         f = int(round(factor))
         out = np.empty((len(cells), f, f, f), np.float32)
-        _gather_blocks(self._store, self._store.view(np.uint32), self._dims, offset, cells,
-                       as_probability, self._sigmoid_cache, out)  # fmt: skip
+        _gather_blocks(self._store, self._dims, offset, cells, out)
+        if as_probability:
+            probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
         return out
 
     def probability(self, grid: GridSpec) -> np.ndarray:
@@ -326,7 +344,7 @@ class OccupancyMap:
         ``grid`` must have the map's resolution and be aligned to its voxels (``ConfigError``
         otherwise).
         """
-        return _probability(self.logodds_in(grid))
+        return probabilities(self.logodds_in(grid))
 
     def known_mask(self, grid: GridSpec) -> np.ndarray:
         """bool of ``grid.shape``: voxels observed at least once."""
@@ -512,7 +530,7 @@ class OccupancyMap:
         index, logodds = self._voxels_at_least(min_probability)
         vertices = np.empty(len(index), dtype=[("xyz", "<f4", 3), ("quality", "<f4")])
         vertices["xyz"] = self.grid.centres(index)
-        vertices["quality"] = _probability(logodds)
+        vertices["quality"] = probabilities(logodds)
         header = (
             "ply\nformat binary_little_endian 1.0\n"
             "comment nbv-gym occupancy map: voxel centres, quality = occupancy probability\n"
@@ -543,32 +561,16 @@ def _check_params(params: dict[str, float], path: str | Path) -> None:
         raise DataFileError(f"{path}: max_range_m must be finite and > 0, got {params['max_range_m']}")
 
 
-#: Entries of the cache of probabilities of recent log-odds (direct-mapped, keyed by the bits).
-_CACHE_BITS = 12
-
-
-def _new_sigmoid_cache() -> tuple[np.ndarray, np.ndarray]:
-    """An empty probability cache: (2^bits,) uint32 keys (NaN's bits: empty) and float32 values."""
-    size = 1 << _CACHE_BITS
-    return np.full(size, np.float32(np.nan).view(np.uint32), np.uint32), np.zeros(size, np.float32)
-
-
 @njit(cache=True)
-def _gather_blocks(store, bits, dims, offset, cells, as_probability, cache, out):
-    """Fill ``out`` (k, f, f, f) with the log-odds — or probabilities if ``as_probability`` — of
-    ``cells`` (coarse indices) from the tiled ``store`` (``bits``: the same memory as uint32),
-    read layer by layer (the store is z-major). A map holds few distinct log-odds (sums of the
-    hit and miss steps, clamped), so probabilities come from a small cache keyed by the log-odds'
-    bits, ``cache`` = (keys, values), and are computed by :func:`_sigmoid_one` only on a miss:
-    the same bits either way."""
+def _gather_blocks(store, dims, offset, cells, out):
+    """Fill ``out`` (k, f, f, f) with the log-odds (NaN = unknown, also outside the map) of
+    ``cells`` (coarse indices) from the tiled ``store``, read layer by layer (the store is
+    z-major)."""
     tile = TILE  # a compile-time constant: the divisions below become shifts
     tiles_x, tiles_y, nx, ny, nz = dims
     layer = tiles_x * tiles_y * tile * tile
     f = out.shape[1]
-    keys, values = cache
-    shift = np.uint64(32 - _CACHE_BITS)
-    unknown = np.float32(0.5) if as_probability else np.float32(np.nan)
-    out[:] = unknown
+    out[:] = np.nan
     for c in range(cells.shape[0]):
         x0 = offset[0] + cells[c, 0] * f
         y0 = offset[1] + cells[c, 1] * f
@@ -579,24 +581,7 @@ def _gather_blocks(store, bits, dims, offset, cells, as_probability, cache, out)
                 row = (z0 + d) * layer + (x // tile) * tiles_y * tile * tile + (x % tile) * tile
                 for b in range(max(0, -y0), min(f, ny - y0)):
                     y = y0 + b
-                    index = row + (y // tile) * tile * tile + y % tile
-                    value = store[index]
-                    if not as_probability:
-                        out[c, a, b, d] = value
-                    elif not np.isnan(value):
-                        key = bits[index]
-                        slot = _slot(key, shift)
-                        if keys[slot] != key:
-                            keys[slot] = key
-                            values[slot] = _sigmoid_one(value)
-                        out[c, a, b, d] = values[slot]
-
-
-@njit(cache=True, inline="always")
-def _slot(key, shift):
-    """Cache slot of a uint32 key: the top bits of its Fibonacci hash."""
-    product = (np.uint64(key) * np.uint64(2654435761)) & np.uint64(0xFFFFFFFF)
-    return np.int64(product >> shift)
+                    out[c, a, b, d] = store[row + (y // tile) * tile * tile + y % tile]
 
 
 @njit(cache=True)
@@ -626,28 +611,6 @@ def _any_voxel(store, tiles_x, tiles_y, xa, ya, f, layers, at_least, threshold):
                 if (value >= threshold) if at_least else not np.isnan(value):
                     return True
     return False
-
-
-def _probability(logodds: np.ndarray) -> np.ndarray:
-    """float32 probability of float32 log-odds, 0.5 for NaN (unknown)."""
-    logodds = np.ascontiguousarray(logodds, dtype=np.float32)
-    return _sigmoid(logodds.ravel()).reshape(logodds.shape)
-
-
-@njit(cache=True)
-def _sigmoid(logodds):
-    """(n,) float32 probabilities of (n,) float32 log-odds; 0.5 for NaN."""
-    out = np.empty(logodds.shape[0], np.float32)
-    for i in range(logodds.shape[0]):
-        value = logodds[i]
-        out[i] = 0.5 if np.isnan(value) else _sigmoid_one(value)
-    return out
-
-
-@njit(cache=True)
-def _sigmoid_one(logodds):
-    """float32 1 / (1 + e^−l) of one known log-odds, computed in float64 and rounded once."""
-    return np.float32(1.0 / (1.0 + math.exp(-np.float64(logodds))))
 
 
 def _at_least(logodds: np.ndarray, threshold: np.float32) -> np.ndarray:

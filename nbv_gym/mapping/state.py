@@ -10,11 +10,13 @@ import numpy as np
 
 from nbv_gym.arrays import FloatArray
 from nbv_gym.config import check
+from nbv_gym.errors import NbvGymError
 from nbv_gym.grid import GridSpec
 from nbv_gym.lidar import Scan
 from nbv_gym.mapping.navigation import NavigationConfig, NavigationLayer
 from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
 from nbv_gym.mapping.statistics import StatisticsConfig, ViewpointStatistics
+from nbv_gym.mapping.tally import CellTally
 
 
 @dataclass(frozen=True)
@@ -53,11 +55,16 @@ class ExplorationState:
 
     Insertion flags the cells of G, extended downwards to cover the navigation bands, that hold
     a changed voxel: G's part says which cuboids to re-evaluate, the band's part which navigation
-    columns to re-project.
+    columns to re-project. Given an ``unobserved_band`` (low, high) of probabilities, the state
+    also keeps per-cell totals of the map over G (:meth:`cell_totals`) for the quality metrics.
     """
 
     def __init__(
-        self, occupancy: OccupancyMap, statistics: ViewpointStatistics, navigation: NavigationLayer
+        self,
+        occupancy: OccupancyMap,
+        statistics: ViewpointStatistics,
+        navigation: NavigationLayer,
+        unobserved_band: tuple[float, float] | None = None,
     ):
         self.occupancy = occupancy
         self.statistics = statistics
@@ -66,14 +73,21 @@ class ExplorationState:
             statistics.grid, navigation, occupancy.grid.res
         )
         self._nav_factor = round(statistics.grid.res / navigation.grid.res)
+        self._tally = None
+        if unobserved_band is not None:
+            voxels = round(statistics.grid.res / occupancy.grid.res)
+            p_min = occupancy.params["p_clamp_min"]
+            self._tally = CellTally(self._region.shape, voxels, unobserved_band, p_min)
 
     @classmethod
-    def from_config(cls, config: MappingConfig) -> ExplorationState:
-        """An empty state as ``config`` describes."""
+    def from_config(
+        cls, config: MappingConfig, unobserved_band: tuple[float, float] | None = None
+    ) -> ExplorationState:
+        """An empty state as ``config`` describes (with cell totals for ``unobserved_band``)."""
         occupancy = OccupancyMap.from_config(config.map, config.sensor_range_m)
         statistics = ViewpointStatistics.from_config(config.statistics, config.sensor_range_m)
         navigation = NavigationLayer.from_config(config.navigation, statistics.grid)
-        state = cls(occupancy, statistics, navigation)
+        state = cls(occupancy, statistics, navigation, unobserved_band)
         state.update_navigation(np.zeros(2))  # also checks that the grids fit together
         return state
 
@@ -86,7 +100,7 @@ class ExplorationState:
         Raises:
             PoseError: the sensor lies outside the map box.
         """
-        inserted = self.occupancy.insert(scan.origin, scan.points_map, region=self._region)
+        inserted = self.occupancy.insert(scan.origin, scan.points_map, self._region, self._tally)
         self.statistics.update(scan.origin, scan.points_map)
         columns = self._nav_columns(inserted.touched[:, :, self._band].any(axis=2))
         self._project(np.argwhere(columns))
@@ -100,9 +114,19 @@ class ExplorationState:
         self._project(None)
         self.navigation.plan(robot_xy)
 
+    def cell_totals(self) -> tuple[np.ndarray, np.ndarray]:
+        """Views of G's shape (gx, gy, gz): float64 Σ p of each cell's map voxels (unknown = 0.5)
+        and int32 the number of them outside the unobserved band; NbvGymError without a band."""
+        if self._tally is None:
+            raise NbvGymError("this state keeps no cell totals: build it with unobserved_band")
+        below = self._below
+        return self._tally.sums[:, :, below:], self._tally.outside[:, :, below:]
+
     def clear(self) -> None:
         """Forget everything (an empty state, as :meth:`from_config` builds), reusing the
         arrays."""
+        if self._tally is not None:
+            self._tally.clear()
         self.occupancy.clear()
         self.statistics.clear()
         self.navigation.clear()

@@ -87,9 +87,11 @@ def _test_and_set(marks, bit: int) -> bool:
 
 
 @njit(cache=True, inline="always")
-def _update_voxel(store, ix, iy, iz, tiles, delta, lo_min, lo_max, touched, cells) -> None:
-    """Add ``delta`` to a voxel's log-odds (unknown counts as 0), clamp to ``[lo_min, lo_max]`` and
-    flag its coarse cell if the stored value changed; ``tiles`` = (tiles_x, tiles_y)."""
+def _update_voxel(store, ix, iy, iz, tiles, delta, lo_min, lo_max, touched, cells, log, n) -> int:
+    """Add ``delta`` to a voxel's log-odds (unknown counts as 0), clamp to ``[lo_min, lo_max]`` and,
+    if the stored value changed inside the coarse grid, flag its cell and log the change as entry
+    ``n`` (see :func:`insert_scan`); returns the number of changes logged so far. ``tiles`` =
+    (tiles_x, tiles_y)."""
     i = tile_index(ix, iy, iz, tiles[0], tiles[1])
     old = store[i]
     known = not math.isnan(old)
@@ -99,11 +101,19 @@ def _update_voxel(store, ix, iy, iz, tiles, delta, lo_min, lo_max, touched, cell
     elif new > lo_max:
         new = lo_max
     if known and new == old:
-        return
+        return n
     store[i] = new
     a, b, c = cells[0, ix], cells[1, iy], cells[2, iz]
-    if a >= 0 and b >= 0 and c >= 0:
-        touched[a, b, c] = True
+    if a < 0 or b < 0 or c < 0:
+        return n
+    cell = a + b + c
+    touched[cell] = True
+    log_cell, log_old, log_new = log
+    if n < log_cell.shape[0]:
+        log_cell[n] = cell
+        log_old[n] = old
+        log_new[n] = new
+    return n + 1
 
 
 @njit(cache=True, inline="always")
@@ -115,7 +125,7 @@ def _window_tuple(window):
 
 @njit(cache=True)
 def insert_scan(
-    store, dims, origin, points, max_range, deltas, bounds, marks, window, touched, cells
+    store, dims, origin, points, max_range, deltas, bounds, marks, window, touched, cells, log
 ):
     """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
 
@@ -132,14 +142,20 @@ def insert_scan(
         marks: uint8 bitset over the window, all zero on entry (left set on return).
         window: (3, 3) int64 rows: low voxel, limit (``min(shape, map shape − low)``) and shape
             (multiples of 8) of the marking window, which must hold every voxel within range.
-        touched: (a, b, c) bool coarse grid; a cell is set when a voxel inside it changes value.
-        cells: (3, max(nx, ny, nz)) int64 coarse cell index of each voxel index along x, y, z
-            (row 0, 1, 2), −1 outside the coarse grid.
+        touched: flat bool over the coarse grid's cells; a cell is set when a voxel inside it
+            changes value.
+        cells: (3, max(nx, ny, nz)) int64 per voxel index along x, y, z (row 0, 1, 2) the
+            contribution of its coarse cell index to the flat index (index × stride), −1 outside
+            the coarse grid.
+        log: (cell, old, new): the changes of voxels inside the coarse grid, one entry each
+            while the (capacity,) arrays last: int64 flat coarse ``cell``, float32 ``old`` and
+            ``new`` values.
 
     Returns:
-        Number of voxels that received a hit.
+        Number of voxels that received a hit, number of changes inside the coarse grid (more
+        than the log's capacity when they did not all fit).
     """
-    n_hits = 0
+    n_hits = n_changes = 0
     w = _window_tuple(window)
     tiles = (dims[0], dims[1])
     lo_min, lo_max = bounds[0], bounds[1]
@@ -153,7 +169,8 @@ def insert_scan(
         ix, iy, iz = int(math.floor(p[0])), int(math.floor(p[1])), int(math.floor(p[2]))
         bit = _window_bit(ix, iy, iz, w)
         if bit >= 0 and not _test_and_set(marks, bit):
-            _update_voxel(store, ix, iy, iz, tiles, deltas[0], lo_min, lo_max, touched, cells)
+            n_changes = _update_voxel(store, ix, iy, iz, tiles, deltas[0], lo_min, lo_max,
+                                      touched, cells, log, n_changes)  # fmt: skip
             n_hits += 1
     end = np.empty(3)
     for r in range(len(points)):
@@ -166,19 +183,21 @@ def insert_scan(
             scale = max_range / d
         for a in range(3):
             end[a] = origin[a] + (p[a] - origin[a]) * scale if scale < 1.0 else p[a]
-        _carve_ray(store, tiles, origin, end, deltas[1], lo_min, lo_max, marks, w, touched, cells)
-    return n_hits
+        n_changes = _carve_ray(store, tiles, origin, end, deltas[1], lo_min, lo_max, marks, w,
+                               touched, cells, log, n_changes)  # fmt: skip
+    return n_hits, n_changes
 
 
 @njit(cache=True)
-def _carve_ray(store, tiles, o, e, miss, lo_min, lo_max, marks, w, touched, cells) -> None:
+def _carve_ray(store, tiles, o, e, miss, lo_min, lo_max, marks, w, touched, cells, log, n) -> int:
     """Free pass from ``o`` towards ``e`` (grid units): every voxel OctoMap's ``computeRayKeys``
     yields — the sensor's voxel included, the endpoint's voxel excluded — not yet marked in this
-    scan gets one miss. Stops where the ray leaves the map (or the window, which holds the range)."""
+    scan gets one miss. Stops where the ray leaves the map (or the window, which holds the range).
+    Returns the number of changes logged so far, ``n`` before."""
     cx, cy, cz = int(math.floor(o[0])), int(math.floor(o[1])), int(math.floor(o[2]))
     ex, ey, ez = int(math.floor(e[0])), int(math.floor(e[1])), int(math.floor(e[2]))
     if cx == ex and cy == ey and cz == ez:
-        return
+        return n
     dx, dy, dz = e[0] - o[0], e[1] - o[1], e[2] - o[2]
     length = math.sqrt(dx * dx + dy * dy + dz * dz)
     sx, tx, ddx = _axis_setup(o[0], dx / length, cx)
@@ -187,14 +206,15 @@ def _carve_ray(store, tiles, o, e, miss, lo_min, lo_max, marks, w, touched, cell
     while True:
         bit = _window_bit(cx, cy, cz, w)
         if bit < 0:
-            return
+            return n
         if not _test_and_set(marks, bit):
-            _update_voxel(store, cx, cy, cz, tiles, miss, lo_min, lo_max, touched, cells)
+            n = _update_voxel(store, cx, cy, cz, tiles, miss, lo_min, lo_max, touched, cells,
+                              log, n)  # fmt: skip
         cx, cy, cz, tx, ty, tz = _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz)
         if cx == ex and cy == ey and cz == ez:
-            return
+            return n
         if min(tx, min(ty, tz)) > length:
-            return
+            return n
 
 
 @njit(cache=True, inline="always")

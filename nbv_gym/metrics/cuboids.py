@@ -372,6 +372,7 @@ class QualityTracker:
         self._gt_start, self._gt_voxels = _ground_truth_lists(voxels, self.shape, n)
         self.u_occ = (np.diff(self._gt_start) > 0).reshape(self.shape)  # = occupied_cuboids
         self.volume = comparison_volume(self.u_occ, self.config.volume)
+        self._occupied = self.u_occ.ravel()
         self._offsets, self._offset_d2 = _stencil(self.config)
         self._thresholds = np.array([p for p, _ in self.config.cov_settings])
         self._radius2 = np.array(
@@ -400,25 +401,64 @@ class QualityTracker:
         """Recompute the (m,) flat cuboid indices ``touched`` from their (m, n, n, n)
         probability ``blocks`` and summarise: the fast path after a scan, which never needs the
         whole grid. Gives the same bits as :meth:`update` on a grid holding these blocks."""
-        touched = np.asarray(touched, dtype=np.int64)
         n = self.config.cuboid_voxels
         if blocks.shape != (len(touched), n, n, n):
             raise MetricInputError(
                 f"expected ({len(touched)}, {n}, {n}, {n}) probability blocks, got {blocks.shape}"
             )
+        self._recompute(self._checked(touched), np.ascontiguousarray(blocks))
+        return self.summary()
+
+    def update_totals(
+        self, touched: IntArray, sums: FloatArray, outside: IntArray, blocks: FloatArray
+    ) -> QualitySummary:
+        """Recompute the (m,) flat cuboid indices ``touched`` from running totals of their voxels
+        — (m,) float64 ``sums`` Σ p and (m,) int ``outside``, the number of voxels outside the
+        unobserved band (:class:`~nbv_gym.mapping.tally.CellTally`) — and the (k, n, n, n)
+        probability ``blocks`` of the touched cuboids that need a coverage search
+        (:meth:`needs_coverage`, in order), and summarise. Same bits as :meth:`update_blocks`."""
+        touched = self._checked(touched)
+        observed = np.asarray(outside) > 0
+        self._store(touched, observed, np.asarray(sums, np.float64), blocks)
+        return self.summary()
+
+    def needs_coverage(self, touched: IntArray, outside: IntArray) -> BoolArray:
+        """(m,) bool: which of the flat cuboid indices ``touched``, with ``outside`` voxels
+        outside the unobserved band, hold ground truth and are observed (their coverage is
+        searched in their voxels)."""
+        return self._occupied[touched] & (np.asarray(outside) > 0)
+
+    def _checked(self, touched: IntArray) -> IntArray:
+        touched = np.asarray(touched, dtype=np.int64)
         if len(touched) and (touched.min() < 0 or touched.max() >= self.u_occ.size):
             raise MetricInputError(f"cuboid indices must lie in [0, {self.u_occ.size})")
-        self._recompute(touched, np.ascontiguousarray(blocks))
-        return self.summary()
+        return touched
 
     def _recompute(self, flat: IntArray, blocks: FloatArray) -> None:
         """Recompute the cuboids ``flat`` from their probability ``blocks``, in place."""
         same = blocks.dtype.type  # thresholds in the grid's precision: float32 0.4 is "<= 0.4"
-        _update_cuboids(
-            blocks, flat, self.config.cuboid_voxels, self.shape, same(self.config.unknown_low),
-            same(self.config.unknown_high), self._gt_start, self._gt_voxels, self._offsets,
-            self._offset_d2, self._thresholds.astype(blocks.dtype), self._radius2,
-            self._observed, self._l1, self._cov,
+        band = (same(self.config.unknown_low), same(self.config.unknown_high))
+        observed, sums = _block_totals(blocks, *band)
+        self._store(flat, observed, sums, blocks[self._occupied[flat] & observed])
+
+    def _store(self, flat: IntArray, observed: BoolArray, sums: FloatArray, blocks) -> None:
+        """Set the cuboids ``flat``: observed or not, L1 (their ``sums`` if observed), coverage
+        searched in ``blocks``, the probabilities of those observed and holding ground truth."""
+        need = flat[self._occupied[flat] & observed]
+        n = self.config.cuboid_voxels
+        if blocks.shape != (len(need), n, n, n):
+            raise MetricInputError(
+                f"expected ({len(need)}, {n}, {n}, {n}) probability blocks of the observed "
+                f"cuboids holding ground truth, got {blocks.shape}"
+            )
+        self._observed[flat] = observed
+        self._l1[flat] = np.where(observed, sums, self.config.unobserved_l1)
+        self._cov[:, flat] = 0.0
+        blocks = np.ascontiguousarray(blocks)
+        _coverages(
+            blocks, need, self.config.cuboid_voxels, self.shape, self._gt_start, self._gt_voxels,
+            self._offsets, self._offset_d2, self._thresholds.astype(blocks.dtype), self._radius2,
+            self._cov,
         )  # fmt: skip
 
     def reset(self) -> None:
@@ -508,25 +548,28 @@ def _ground_truth_lists(voxels: IntArray, shape: tuple[int, int, int], n: int):
 
 
 @njit(cache=True, parallel=True)
-def _update_cuboids(blocks, flat, n, shape, low, high, gt_start, gt_voxels, offsets, offset_d2,
-                    thresholds, radius2, observed, l1, cov):  # fmt: skip
-    """Recompute observed, L1 and the coverages of the flat cuboid indices ``flat`` from their
-    (m, n, n, n) probability ``blocks``, in place."""
+def _block_totals(blocks, low, high):
+    """(m,) bool observed and (m,) float64 Σ p of (m, n, n, n) probability ``blocks``."""
+    m, n = blocks.shape[0], blocks.shape[1]
+    observed = np.empty(m, np.bool_)
+    sums = np.empty(m)
+    for t in prange(m):
+        observed[t], sums[t] = _scan_cuboid(blocks[t], 0, 0, 0, n, low, high)
+    return observed, sums
+
+
+@njit(cache=True, parallel=True)
+def _coverages(blocks, flat, n, shape, gt_start, gt_voxels, offsets, offset_d2, thresholds,
+               radius2, cov):  # fmt: skip
+    """Set the coverages ``cov[:, f]`` of the flat cuboid indices ``flat`` from their (m, n, n,
+    n) probability ``blocks``, in place."""
     for t in prange(flat.shape[0]):
         f = flat[t]
-        block = blocks[t]
-        seen, total = _scan_cuboid(block, 0, 0, 0, n, low, high)
-        observed[f] = seen
-        if not seen:
-            l1[f] = 0.5 * n * n * n
-            cov[:, f] = 0.0
-            continue
-        l1[f] = total
         corner = np.empty(3, np.int64)
         corner[0] = f // (shape[1] * shape[2]) * n
         corner[1] = (f // shape[2]) % shape[1] * n
         corner[2] = f % shape[2] * n
-        _coverage(block, n, gt_voxels[gt_start[f] : gt_start[f + 1]] - corner, offsets,
+        _coverage(blocks[t], n, gt_voxels[gt_start[f] : gt_start[f + 1]] - corner, offsets,
                   offset_d2, thresholds, radius2, cov[:, f])  # fmt: skip
 
 

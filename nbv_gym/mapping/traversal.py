@@ -77,46 +77,6 @@ def _window_bit(ix, iy, iz, w) -> int:
 
 
 @njit(cache=True, inline="always")
-def _test_and_set(marks, bit: int) -> bool:
-    """Set ``bit`` of the bitset ``marks``; True if it was already set."""
-    byte, mask = bit >> 3, np.uint8(1 << (bit & 7))
-    if marks[byte] & mask:
-        return True
-    marks[byte] |= mask
-    return False
-
-
-@njit(cache=True, inline="always")
-def _update_voxel(store, ix, iy, iz, tiles, delta, lo_min, lo_max, touched, cells, log, n) -> int:
-    """Add ``delta`` to a voxel's log-odds (unknown counts as 0), clamp to ``[lo_min, lo_max]`` and,
-    if the stored value changed inside the coarse grid, flag its cell and log the change as entry
-    ``n`` (see :func:`insert_scan`); returns the number of changes logged so far. ``tiles`` =
-    (tiles_x, tiles_y)."""
-    i = tile_index(ix, iy, iz, tiles[0], tiles[1])
-    old = store[i]
-    known = not math.isnan(old)
-    new = (old if known else np.float32(0.0)) + delta
-    if new < lo_min:
-        new = lo_min
-    elif new > lo_max:
-        new = lo_max
-    if known and new == old:
-        return n
-    store[i] = new
-    a, b, c = cells[0, ix], cells[1, iy], cells[2, iz]
-    if a < 0 or b < 0 or c < 0:
-        return n
-    cell = a + b + c
-    touched[cell] = True
-    log_cell, log_old, log_new = log
-    if n < log_cell.shape[0]:
-        log_cell[n] = cell
-        log_old[n] = old
-        log_new[n] = new
-    return n + 1
-
-
-@njit(cache=True, inline="always")
 def _window_tuple(window):
     """The marking window's (3, 3) array as the scalars :func:`_window_bit` reads."""
     return (window[0, 0], window[0, 1], window[0, 2], window[1, 0], window[1, 1], window[1, 2],
@@ -130,7 +90,13 @@ def insert_scan(
     """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
 
     First every return within ``max_range`` gets a hit (once per voxel), then every voxel of every
-    ray's free pass not yet updated in this scan gets a miss; far returns carve up to ``max_range``.
+    ray's free pass (OctoMap's ``computeRayKeys``: the sensor's voxel included, the endpoint's
+    excluded) not yet updated in this scan gets a miss; far returns carve up to ``max_range``. A
+    pass stops where it leaves the map (or the marking window, which holds the range).
+
+    Both passes share one loop (a hit is a pass of one voxel), written out in this function: numba
+    adds reference counting to every inlined helper that takes an array, which made this loop
+    three times slower when the voxel update was such a helper (measured).
 
     Args:
         store: flat float32 tiled log-odds (:func:`tile_index`), NaN = unknown; updated in place.
@@ -155,66 +121,75 @@ def insert_scan(
         Number of voxels that received a hit, number of changes inside the coarse grid (more
         than the log's capacity when they did not all fit).
     """
-    n_hits = n_changes = 0
+    tiles_x, tiles_y = dims[0], dims[1]
     w = _window_tuple(window)
-    tiles = (dims[0], dims[1])
     lo_min, lo_max = bounds[0], bounds[1]
-    near = np.empty(len(points), dtype=np.bool_)
-    for r in range(len(points)):
-        p = points[r]
-        d = math.sqrt((p[0] - origin[0]) ** 2 + (p[1] - origin[1]) ** 2 + (p[2] - origin[2]) ** 2)
-        near[r] = d <= max_range
-        if not near[r]:
-            continue
-        ix, iy, iz = int(math.floor(p[0])), int(math.floor(p[1])), int(math.floor(p[2]))
-        bit = _window_bit(ix, iy, iz, w)
-        if bit >= 0 and not _test_and_set(marks, bit):
-            n_changes = _update_voxel(store, ix, iy, iz, tiles, deltas[0], lo_min, lo_max,
-                                      touched, cells, log, n_changes)  # fmt: skip
-            n_hits += 1
+    log_cell, log_old, log_new = log
+    n_points = len(points)
+    near = np.empty(n_points, dtype=np.bool_)
+    for r in range(n_points):
+        near[r] = _distance(points[r], origin) <= max_range
+    n_hits = n_changes = 0
     end = np.empty(3)
-    for r in range(len(points)):
+    for task in range(2 * n_points):
+        hit, r = task < n_points, task % n_points
         p = points[r]
-        scale = 1.0
-        if not near[r]:
-            d = math.sqrt(
-                (p[0] - origin[0]) ** 2 + (p[1] - origin[1]) ** 2 + (p[2] - origin[2]) ** 2
+        if hit:
+            if not near[r]:
+                continue
+            cx, cy, cz = int(math.floor(p[0])), int(math.floor(p[1])), int(math.floor(p[2]))
+            delta = deltas[0]
+        else:
+            scale = 1.0 if near[r] else max_range / _distance(p, origin)
+            for a in range(3):
+                end[a] = origin[a] + (p[a] - origin[a]) * scale if scale < 1.0 else p[a]
+            cx, cy, cz = int(math.floor(origin[0])), int(math.floor(origin[1])), int(
+                math.floor(origin[2])
             )
-            scale = max_range / d
-        for a in range(3):
-            end[a] = origin[a] + (p[a] - origin[a]) * scale if scale < 1.0 else p[a]
-        n_changes = _carve_ray(store, tiles, origin, end, deltas[1], lo_min, lo_max, marks, w,
-                               touched, cells, log, n_changes)  # fmt: skip
+            ex, ey, ez = int(math.floor(end[0])), int(math.floor(end[1])), int(math.floor(end[2]))
+            if cx == ex and cy == ey and cz == ez:
+                continue
+            dx, dy, dz = end[0] - origin[0], end[1] - origin[1], end[2] - origin[2]
+            length = math.sqrt(dx * dx + dy * dy + dz * dz)
+            sx, tx, ddx = _axis_setup(origin[0], dx / length, cx)
+            sy, ty, ddy = _axis_setup(origin[1], dy / length, cy)
+            sz, tz, ddz = _axis_setup(origin[2], dz / length, cz)
+            delta = deltas[1]
+        while True:
+            bit = _window_bit(cx, cy, cz, w)
+            if bit < 0:
+                break
+            byte, mask = bit >> 3, np.uint8(1 << (bit & 7))
+            if not marks[byte] & mask:  # the voxel's first update in this scan
+                marks[byte] |= mask
+                i = tile_index(cx, cy, cz, tiles_x, tiles_y)
+                old = store[i]
+                known = not math.isnan(old)
+                new = min(max((old if known else np.float32(0.0)) + delta, lo_min), lo_max)
+                n_hits += hit
+                if not (known and new == old):
+                    store[i] = new
+                    ca, cb, cc = cells[0, cx], cells[1, cy], cells[2, cz]
+                    if ca >= 0 and cb >= 0 and cc >= 0:
+                        cell = ca + cb + cc
+                        touched[cell] = True
+                        if n_changes < log_cell.shape[0]:
+                            log_cell[n_changes] = cell
+                            log_old[n_changes] = old
+                            log_new[n_changes] = new
+                        n_changes += 1
+            if hit:
+                break
+            cx, cy, cz, tx, ty, tz = _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz)
+            if (cx == ex and cy == ey and cz == ez) or min(tx, min(ty, tz)) > length:
+                break
     return n_hits, n_changes
 
 
-@njit(cache=True)
-def _carve_ray(store, tiles, o, e, miss, lo_min, lo_max, marks, w, touched, cells, log, n) -> int:
-    """Free pass from ``o`` towards ``e`` (grid units): every voxel OctoMap's ``computeRayKeys``
-    yields — the sensor's voxel included, the endpoint's voxel excluded — not yet marked in this
-    scan gets one miss. Stops where the ray leaves the map (or the window, which holds the range).
-    Returns the number of changes logged so far, ``n`` before."""
-    cx, cy, cz = int(math.floor(o[0])), int(math.floor(o[1])), int(math.floor(o[2]))
-    ex, ey, ez = int(math.floor(e[0])), int(math.floor(e[1])), int(math.floor(e[2]))
-    if cx == ex and cy == ey and cz == ez:
-        return n
-    dx, dy, dz = e[0] - o[0], e[1] - o[1], e[2] - o[2]
-    length = math.sqrt(dx * dx + dy * dy + dz * dz)
-    sx, tx, ddx = _axis_setup(o[0], dx / length, cx)
-    sy, ty, ddy = _axis_setup(o[1], dy / length, cy)
-    sz, tz, ddz = _axis_setup(o[2], dz / length, cz)
-    while True:
-        bit = _window_bit(cx, cy, cz, w)
-        if bit < 0:
-            return n
-        if not _test_and_set(marks, bit):
-            n = _update_voxel(store, cx, cy, cz, tiles, miss, lo_min, lo_max, touched, cells,
-                              log, n)  # fmt: skip
-        cx, cy, cz, tx, ty, tz = _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz)
-        if cx == ex and cy == ey and cz == ez:
-            return n
-        if min(tx, min(ty, tz)) > length:
-            return n
+@njit(cache=True, inline="always")
+def _distance(p, q) -> float:
+    """Euclidean distance of two (3,) points."""
+    return math.sqrt((p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2)
 
 
 @njit(cache=True, inline="always")

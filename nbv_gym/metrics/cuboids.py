@@ -86,7 +86,11 @@ class QualityConfig:
             f"need 0 <= unknown_low < 0.5 < unknown_high <= 1, got "
             f"{self.unknown_low}, {self.unknown_high}",
         )
-        check(len(self.cov_settings) >= 1, "cov_settings", "needs at least one (p, d) pair")
+        check(
+            1 <= len(self.cov_settings) <= 32,
+            "cov_settings",
+            f"needs 1 to 32 (p, d) pairs, got {len(self.cov_settings)}",
+        )
         for p, d in self.cov_settings:
             check(0 <= p < 1 and d >= 0, "cov_settings", f"need 0 <= p < 1, d >= 0; got {p, d}")
         check(
@@ -373,11 +377,8 @@ class QualityTracker:
         self.u_occ = (np.diff(self._gt_start) > 0).reshape(self.shape)  # = occupied_cuboids
         self.volume = comparison_volume(self.u_occ, self.config.volume)
         self._occupied = self.u_occ.ravel()
-        self._offsets, self._offset_d2 = _stencil(self.config)
+        self._offsets, self._within = _stencil(self.config)
         self._thresholds = np.array([p for p, _ in self.config.cov_settings])
-        self._radius2 = np.array(
-            [(d / self.config.voxel_size_m) ** 2 + 1e-9 for _, d in self.config.cov_settings]
-        )
         size = int(np.prod(self.shape))
         self._observed = np.zeros(size, bool)
         self._l1 = np.full(size, self.config.unobserved_l1)
@@ -457,8 +458,7 @@ class QualityTracker:
         blocks = np.ascontiguousarray(blocks)
         _coverages(
             blocks, need, self.config.cuboid_voxels, self.shape, self._gt_start, self._gt_voxels,
-            self._offsets, self._offset_d2, self._thresholds.astype(blocks.dtype), self._radius2,
-            self._cov,
+            self._offsets, self._within, self._thresholds.astype(blocks.dtype), self._cov,
         )  # fmt: skip
 
     def reset(self) -> None:
@@ -504,13 +504,16 @@ class QualityTracker:
         return np.unique(touched)
 
 
-def _stencil(config: CuboidConfig) -> tuple[IntArray, FloatArray]:
-    """Offsets of the widest coverage setting, sorted by distance, and their squared lengths (voxels²)."""
+def _stencil(config: CuboidConfig) -> tuple[IntArray, IntArray]:
+    """(o, 3) offsets of the widest coverage setting, sorted by length, and (o,) int64 the
+    bitmask of the settings whose distance reaches each (bit s: ``cov_settings[s]``)."""
     widest = max(d for _, d in config.cov_settings)
     offsets = coverage_offsets(widest, config.voxel_size_m)
     d2 = (offsets**2).sum(axis=1).astype(float)
     order = np.argsort(d2, kind="stable")
-    return offsets[order], d2[order]
+    radius2 = np.array([(d / config.voxel_size_m) ** 2 + 1e-9 for _, d in config.cov_settings])
+    within = (d2[order, None] <= radius2[None, :]) << np.arange(len(radius2))
+    return offsets[order], within.sum(axis=1).astype(np.int64)
 
 
 def _checked_voxels(voxels: IntArray, grid_shape: tuple[int, ...]) -> IntArray:
@@ -559,18 +562,14 @@ def _block_totals(blocks, low, high):
 
 
 @njit(cache=True, parallel=True)
-def _coverages(blocks, flat, n, shape, gt_start, gt_voxels, offsets, offset_d2, thresholds,
-               radius2, cov):  # fmt: skip
+def _coverages(blocks, flat, n, shape, gt_start, gt_voxels, offsets, within, thresholds, cov):
     """Set the coverages ``cov[:, f]`` of the flat cuboid indices ``flat`` from their (m, n, n,
-    n) probability ``blocks``, in place."""
+    n) probability ``blocks``, in place (:func:`_coverage`)."""
     for t in prange(flat.shape[0]):
         f = flat[t]
-        corner = np.empty(3, np.int64)
-        corner[0] = f // (shape[1] * shape[2]) * n
-        corner[1] = (f // shape[2]) % shape[1] * n
-        corner[2] = f % shape[2] * n
-        _coverage(blocks[t], n, gt_voxels[gt_start[f] : gt_start[f + 1]] - corner, offsets,
-                  offset_d2, thresholds, radius2, cov[:, f])  # fmt: skip
+        corner = (f // (shape[1] * shape[2]) * n, (f // shape[2]) % shape[1] * n, f % shape[2] * n)
+        _coverage(blocks[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
+                  thresholds, cov[:, f])  # fmt: skip
 
 
 @njit(cache=True, fastmath={"reassoc", "nsz"})
@@ -594,32 +593,37 @@ def _scan_cuboid(prob, i0, j0, k0, n, low, high):
 
 
 @njit(cache=True)
-def _coverage(block, n, voxels, offsets, offset_d2, thresholds, radius2, out):
-    """Fill ``out`` (s,) with the coverage of each setting for the ground-truth ``voxels`` (k, 3),
-    given relative to the (n, n, n) probability ``block`` of their cuboid.
+def _coverage(block, voxels, corner, offsets, within, thresholds, out):
+    """Fill ``out`` (s,) with the coverage of each setting for the ground-truth ``voxels`` (k, 3)
+    of the cuboid whose low voxel is ``corner``, from its (n, n, n) probability ``block``.
 
-    Offsets are sorted by length, so the search of a voxel stops once every setting has a match.
+    Each voxel of the block first gets the bitmask of the settings whose threshold its p exceeds;
+    a ground-truth voxel is covered by setting s if some voxel of ``offsets`` (sorted by length)
+    inside the cuboid has bit s, where ``within`` (o,) is the bitmask of the settings whose
+    radius reaches offset o. The search of a voxel stops once every setting has a match.
     """
+    n = block.shape[0]
     settings = thresholds.shape[0]
     every = (1 << settings) - 1
-    out[:] = 0.0
+    levels = np.empty((n, n, n), np.int64)
+    for i in range(n):
+        for j in range(n):
+            for k in range(n):
+                p, level = block[i, j, k], 0
+                for s in range(settings):
+                    level |= (p > thresholds[s]) << s
+                levels[i, j, k] = level
+    counts = np.zeros(settings, np.int64)
     for v in range(voxels.shape[0]):
+        x, y, z = voxels[v, 0] - corner[0], voxels[v, 1] - corner[1], voxels[v, 2] - corner[2]
         found = 0
         for o in range(offsets.shape[0]):
-            i = voxels[v, 0] + offsets[o, 0]
-            j = voxels[v, 1] + offsets[o, 1]
-            k = voxels[v, 2] + offsets[o, 2]
-            if i < 0 or i >= n or j < 0 or j >= n or k < 0 or k >= n:
-                continue
-            p = block[i, j, k]
-            for s in range(settings):
-                if offset_d2[o] <= radius2[s] and p > thresholds[s]:
-                    found |= 1 << s
-            if found == every:
-                break
+            i, j, k = x + offsets[o, 0], y + offsets[o, 1], z + offsets[o, 2]
+            if 0 <= i < n and 0 <= j < n and 0 <= k < n:
+                found |= levels[i, j, k] & within[o]
+                if found == every:
+                    break
         for s in range(settings):
-            if found & (1 << s):
-                out[s] += 1.0
-    if voxels.shape[0] > 0:
-        for s in range(settings):
-            out[s] /= voxels.shape[0]
+            counts[s] += (found >> s) & 1
+    for s in range(settings):
+        out[s] = counts[s] / voxels.shape[0] if voxels.shape[0] else 0.0

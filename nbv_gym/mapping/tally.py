@@ -21,7 +21,7 @@ from numba import njit
 from nbv_gym.config import check
 from nbv_gym.mapping.probability import probabilities_in_place
 
-#: Changes the log holds at first (12 bytes each); a scan of the benchmark changes ~250 k voxels.
+#: Changes the log holds at first (12 bytes each: 6 MiB); a benchmark scan changes ~250 k voxels.
 LOG_CAPACITY = 1 << 19
 
 
@@ -95,7 +95,7 @@ class CellTally:
 def new_log(capacity: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """An empty change log of ``capacity`` entries for the insertion kernel: (cell, old, new)
     — see :func:`~nbv_gym.mapping.traversal.insert_scan`."""
-    return np.empty(capacity, np.int64), np.empty(capacity, np.float32), np.empty(capacity, np.float32)
+    return np.empty(capacity, np.int32), np.empty(capacity, np.float32), np.empty(capacity, np.float32)
 
 
 @njit(cache=True)

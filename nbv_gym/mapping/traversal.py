@@ -114,7 +114,7 @@ def insert_scan(
             contribution of its coarse cell index to the flat index (index × stride), −1 outside
             the coarse grid.
         log: (cell, old, new): the changes of voxels inside the coarse grid, one entry each
-            while the (capacity,) arrays last: int64 flat coarse ``cell``, float32 ``old`` and
+            while the (capacity,) arrays last: int32 flat coarse ``cell``, float32 ``old`` and
             ``new`` values.
 
     Returns:

@@ -68,7 +68,7 @@ class TrainConfig:
       of ``train_worlds``, one world per episode.
     - ``train_worlds`` / ``eval_worlds``: world names or spec files, or one world distribution
       (``random:mixed``, ``random:trees``, …: a world drawn from a pool of ``world_pool_size``
-      at every reset); evaluation cycles over ``eval_worlds`` with ``eval_episodes`` episodes
+      every ``episodes_per_world`` resets); evaluation cycles over ``eval_worlds`` with ``eval_episodes`` episodes
       (default: one per world).
     - ``task``: ``"budget"`` (``max_steps`` scans, no termination: the agent cannot profit from
       delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.tasks`.
@@ -95,6 +95,7 @@ class TrainConfig:
     train_worlds: tuple[str, ...] = TRAIN_WORLDS
     eval_worlds: tuple[str, ...] = EVAL_WORLDS
     world_pool_size: int = POOL_SIZE
+    episodes_per_world: int = 1
     task: str = "budget"
     noise: int = 1
     max_steps: int = BUDGET_SCANS
@@ -127,6 +128,7 @@ class TrainConfig:
                 f"a world distribution (random:…) must be the only entry, got {list(worlds)}",
             )
         check(self.world_pool_size >= 1, "world_pool_size", "must be ≥ 1")
+        check(self.episodes_per_world >= 1, "episodes_per_world", "must be ≥ 1")
         check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
         check(self.noise in (0, 1, 2), "noise", f"expected 0, 1 or 2, got {self.noise!r}")
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")

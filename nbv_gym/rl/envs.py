@@ -26,8 +26,8 @@ class WorldCycleEnv(gymnasium.Env):
     Rewards are multiplied by ``reward_scale``. ``invalid_action`` is the environment's option
     (``"snap"`` for learners that do not read ``action_masks()``). One environment serves every
     world: switching worlds swaps the scene and the ground truth and keeps the simulator's
-    arrays. ``info["world"]`` names the episode's world; ``world_pool_size`` is the
-    distribution's pool size.
+    arrays. ``info["world"]`` names the episode's world; ``world_pool_size`` and
+    ``episodes_per_world`` are the distribution's options (:class:`~nbv_gym.env.EnvConfig`).
     """
 
     metadata = {"render_modes": []}
@@ -42,6 +42,7 @@ class WorldCycleEnv(gymnasium.Env):
         invalid_action: str = "raise",
         task: str = "explore",
         world_pool_size: int = POOL_SIZE,
+        episodes_per_world: int = 1,
     ):
         self.worlds = tuple(worlds)
         self.reward_scale = reward_scale
@@ -53,6 +54,7 @@ class WorldCycleEnv(gymnasium.Env):
             observation_layers=tuple(observation_layers),
             invalid_action=invalid_action,
             world_pool_size=world_pool_size,
+            episodes_per_world=episodes_per_world,
         )
         self._world, self._episodes = self.worlds[0], 0
         self.action_space = self.env.action_space

@@ -192,6 +192,7 @@ def _env_factory(config: TrainConfig, worlds: tuple[str, ...]):
         reward_scale=config.reward_scale,
         invalid_action="raise" if config.algorithm == "MaskablePPO" else "snap",
         world_pool_size=config.world_pool_size,
+        episodes_per_world=config.episodes_per_world,
     )
 
 

@@ -71,6 +71,18 @@ def test_resets_draw_seeded_worlds_from_a_bounded_pool():
     assert len(cached) <= POOL
 
 
+def test_episodes_per_world_draws_every_kth_reset():
+    every = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2)
+    third = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2,
+                       episodes_per_world=3)  # fmt: skip
+    drawn = [every.reset(seed=s)[1]["world"] for s in (5, 6)]
+    kept = [third.reset(seed=s)[1]["world"] for s in (5, 6, 7, 6, 8, 9)]
+    assert kept[:3] == [drawn[0]] * 3  # the first reset draws as usual, the next two keep it
+    assert kept[3] == drawn[1] and kept[3:] == [kept[3]] * 3  # the 4th draws (seed 6) again
+    with pytest.raises(ConfigError, match="episodes_per_world"):
+        ExploreEnv(world="random:cuboids", episodes_per_world=0)
+
+
 def test_same_seed_draws_the_same_world_in_another_process():
     code = (
         "import sys; sys.path.insert(0, 'tests/worlds');"

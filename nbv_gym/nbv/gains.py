@@ -371,6 +371,8 @@ def _gains_kernel(
     visits = np.full(nx * ny * nz, -1, np.int64)
     rays = np.empty(len(dx), np.int64)
     want_nobs, want_rmin, want_nomega, want_sigma = wanted[0], wanted[1], wanted[2], wanted[3]
+    # σ_θ's gain of a first observation: â = first_sigma (0, authors 0.5)
+    first_gain = math.log(first_sigma / floor) if first_sigma > floor else 0.0
     for c in range(m):
         ci, cj = candidates[c, 0], candidates[c, 1]
         n = credited_rays(ci, cj, physical, occluders, occluding, reach, nz, crossing_start,
@@ -392,23 +394,16 @@ def _gains_kernel(
                 n_after = _popcount64(np.int64(table[cell, _SECTORS]) | sweep)
                 if n_after > table[cell, _NOMEGA]:
                     g_nomega += ln_count[n_after] - table[cell, _LN_NOMEGA]
-            if want_sigma:
-                g_sigma += _sigma_gain(table, cell, unit, r, floor, first_sigma)
+            if want_sigma and table[cell, _N_NEXT] < 1.5:
+                g_sigma += first_gain  # a first observation
+            elif want_sigma:  # written out: an array-taking helper costs numba refcounting
+                sx = table[cell, _SUM_U] + unit[r, 0]
+                sy = table[cell, _SUM_U + 1] + unit[r, 1]
+                sz = table[cell, _SUM_U + 2] + unit[r, 2]
+                s_after = 1.0 - math.sqrt(sx * sx + sy * sy + sz * sz) / table[cell, _N_NEXT]
+                s_after = min(max(s_after, 0.0), 1.0)
+                if s_after > table[cell, _SIGMA]:
+                    g_sigma += math.log(max(s_after, floor)) - table[cell, _LN_SIGMA]
         sums[c, 0], sums[c, 1], sums[c, 2], sums[c, 3] = g_nobs, g_rmin, g_nomega, g_sigma
         n_visible[c] = n
     return sums, n_visible
-
-
-@njit(cache=True, inline="always")
-def _sigma_gain(table, cell, unit, r, floor, first_sigma):
-    """σ_θ's gain of one more observation of ``cell`` along sight line ``r``."""
-    if table[cell, _N_NEXT] < 1.5:  # a first observation: â = first_sigma (0, authors 0.5)
-        return math.log(first_sigma / floor) if first_sigma > floor else 0.0
-    sx = table[cell, _SUM_U] + unit[r, 0]
-    sy = table[cell, _SUM_U + 1] + unit[r, 1]
-    sz = table[cell, _SUM_U + 2] + unit[r, 2]
-    s_after = 1.0 - math.sqrt(sx * sx + sy * sy + sz * sz) / table[cell, _N_NEXT]
-    s_after = min(max(s_after, 0.0), 1.0)
-    if s_after > table[cell, _SIGMA]:
-        return math.log(max(s_after, floor)) - table[cell, _LN_SIGMA]
-    return 0.0

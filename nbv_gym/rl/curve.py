@@ -28,6 +28,8 @@ def plot_learning_curve(out: str | Path) -> Path:
     its path: the training episodes' return, Q after the episode and discovered fraction against
     timesteps (moving means over :data:`WINDOW` episodes), and, when the run evaluated, the mean
     return on the evaluation worlds."""
+    from matplotlib.ticker import FuncFormatter, MaxNLocator
+
     from nbv_gym.sweep.formatting import figure
 
     out = Path(out)
@@ -50,6 +52,9 @@ def plot_learning_curve(out: str | Path) -> Path:
     quality.set(xlabel="timesteps", title="Q after the episode (training)")
     discovered.plot(steps, moving_mean(episodes["discovered"]))
     discovered.set(xlabel="timesteps", title="Discovered fraction (training)")
+    for axes in (ret, quality, discovered):  # "40k", at most 5 ticks: readable at any step count
+        axes.xaxis.set_major_locator(MaxNLocator(5))
+        axes.xaxis.set_major_formatter(FuncFormatter(lambda x, _: f"{x / 1000:g}k"))
     fig.suptitle(f"{out.name}: {len(steps)} training episodes, moving means of {WINDOW}")
     fig.tight_layout()
     path = out / CURVE_PNG

@@ -146,8 +146,8 @@ class OccupancyMap:
         )
         self._window_shape = self._marking_window(grid, max_range_m)
         self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
-        self._dirty = np.array([self._tiles_xy, (0, 0)], np.int64)  # x, y tile box written since
-        # the last clear(): low (row 0) and high (row 1, exclusive); empty when low ≥ high
+        self._dirty = np.zeros((nz, self._tiles_xy[0]), bool)  # (z, tile row) written since the
+        # last clear(): each a contiguous run of tiles_y tiles in the store
         self._sigmoid_cache = new_cache()
 
     @classmethod
@@ -202,7 +202,6 @@ class OccupancyMap:
         if tally is not None and tally.sums.shape != touched.shape:
             raise NbvGymError(f"a tally of {tally.sums.shape} cells needs a region of that shape")
         window = self._window(origin_grid)
-        self._mark_dirty(window)
         self._marks[:] = 0
         log = NO_LOG if tally is None else tally.log
         n_occupied, n_changes = insert_scan(
@@ -218,6 +217,7 @@ class OccupancyMap:
             touched.reshape(-1),
             cells,
             log,
+            self._dirty,
         )
         if tally is not None and not tally.apply(n_changes, self._sigmoid_cache):
             cells = np.argwhere(touched)
@@ -225,18 +225,11 @@ class OccupancyMap:
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)
 
     def clear(self) -> None:
-        """Forget every voxel (all unknown again), reusing the storage: only the tiles written
-        since the last clear are reset."""
-        (x0, y0), (x1, y1) = self._dirty
-        if x0 < x1 and y0 < y1:
-            self._layers()[:, x0:x1, y0:y1] = np.nan
-        self._dirty[:] = [self._tiles_xy, (0, 0)]
-
-    def _mark_dirty(self, window: np.ndarray) -> None:
-        """Grow the written tile box by the x, y extent of a scan's marking ``window``."""
-        low, limit = window[0, :2], window[1, :2]
-        self._dirty[0] = np.minimum(self._dirty[0], low // TILE)
-        self._dirty[1] = np.maximum(self._dirty[1], -(-(low + limit) // TILE))
+        """Forget every voxel (all unknown again), reusing the storage: only the rows of tiles
+        written since the last clear are reset."""
+        rows = self._store.reshape(*self._dirty.shape, -1)  # (z, tile row, tiles_y · 16)
+        rows[self._dirty] = np.nan
+        self._dirty[:] = False
 
     def _origin_in_grid(self, origin: FloatArray) -> np.ndarray:
         """(3,) float64 sensor position in grid units; PoseError outside the box."""
@@ -520,7 +513,7 @@ class OccupancyMap:
             )
         occupancy = cls(grid, **params)
         occupancy._set_dense(logodds)
-        occupancy._dirty[:] = [(0, 0), occupancy._tiles_xy]
+        occupancy._dirty[:] = True
         return occupancy
 
     def to_ply(self, path: str | Path, min_probability: float = 0.5) -> int:

@@ -85,7 +85,8 @@ def _window_tuple(window):
 
 @njit(cache=True)
 def insert_scan(
-    store, dims, origin, points, max_range, deltas, bounds, marks, window, touched, cells, log
+    store, dims, origin, points, max_range, deltas, bounds, marks, window, touched, cells, log,
+    dirty,
 ):
     """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
 
@@ -116,6 +117,7 @@ def insert_scan(
         log: (cell, old, new): the changes of voxels inside the coarse grid, one entry each
             while the (capacity,) arrays last: int32 flat coarse ``cell``, float32 ``old`` and
             ``new`` values.
+        dirty: (nz, tiles_x) bool: set for each (z layer, row of tiles) written.
 
     Returns:
         Number of voxels that received a hit, number of changes inside the coarse grid (more
@@ -169,6 +171,7 @@ def insert_scan(
                 n_hits += hit
                 if not (known and new == old):
                     store[i] = new
+                    dirty[cz, cx >> 2] = True
                     ca, cb, cc = cells[0, cx], cells[1, cy], cells[2, cz]
                     if ca >= 0 and cb >= 0 and cc >= 0:
                         cell = ca + cb + cc

@@ -58,8 +58,10 @@ def test_clear_makes_every_voxel_unknown_again():
     occupancy, tally = new_map(), CellTally(REGION.shape, 5, BAND, p_min=0.12)
     for origin, points in random_scans(seed=2, n_scans=2):
         occupancy.insert(origin, points, REGION, tally)
+    assert occupancy.n_known > 0
     occupancy.clear()
     tally.clear()
+    assert occupancy.n_known == 0  # only the written rows of tiles were reset: all of them
     np.testing.assert_array_equal(tally.sums, np.full(REGION.shape, 62.5))
     np.testing.assert_array_equal(tally.outside, 0)
 

@@ -111,8 +111,9 @@ class ExploreEnv(gymnasium.Env):
         world, noise, max_steps, observation_layers, invalid_action, world_pool_size,
             episodes_per_world: shortcuts overriding the config's ``simulator.world``,
             ``simulator.noise``, ``simulator.episode.max_steps``, ``observation_layers``,
-            ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. Through ``gymnasium.make`` the spec's ``max_episode_steps``
-            truncates too: change both to change the budget.
+            ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. Through
+            ``gymnasium.make`` the spec's ``max_episode_steps`` truncates too: change both to
+            change the budget.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}

@@ -1,10 +1,11 @@
 """Probabilities of the map's log-odds, the same bits wherever they are computed.
 
-A voxel's probability is float32 ``1 / (1 + e^−l)`` of its float32 log-odds ``l``, computed in float64
-and rounded once (:func:`sigmoid_one`); unknown (NaN) is 0.5. A map holds few distinct log-odds (sums
-of the hit and miss steps, clamped), so the compiled hot paths look probabilities up in a small
-direct-mapped cache keyed by the log-odds' bits (:func:`new_cache`, :func:`probabilities_in_place`)
-and call :func:`sigmoid_one` only on a miss: the same bits either way.
+A voxel's probability is float32 ``1 / (1 + e^−l)`` of its float32 log-odds ``l``, computed in
+float64 and rounded once (:func:`sigmoid_one`); unknown (NaN) is 0.5. A map holds few distinct
+log-odds (sums of the hit and miss steps, clamped), so the compiled hot paths look probabilities up
+in a small direct-mapped cache keyed by the log-odds' bits (:func:`new_cache`,
+:func:`probabilities_in_place`) and call :func:`sigmoid_one` only on a miss: the same bits either
+way.
 """
 
 from __future__ import annotations

@@ -95,7 +95,8 @@ class CellTally:
 def new_log(capacity: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """An empty change log of ``capacity`` entries for the insertion kernel: (cell, old, new)
     — see :func:`~nbv_gym.mapping.traversal.insert_scan`."""
-    return np.empty(capacity, np.int32), np.empty(capacity, np.float32), np.empty(capacity, np.float32)
+    cell = np.empty(capacity, np.int32)
+    return cell, np.empty(capacity, np.float32), np.empty(capacity, np.float32)
 
 
 @njit(cache=True)

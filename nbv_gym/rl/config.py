@@ -68,8 +68,8 @@ class TrainConfig:
       of ``train_worlds``, one world per episode.
     - ``train_worlds`` / ``eval_worlds``: world names or spec files, or one world distribution
       (``random:mixed``, ``random:trees``, …: a world drawn from a pool of ``world_pool_size``
-      every ``episodes_per_world`` resets); evaluation cycles over ``eval_worlds`` with ``eval_episodes`` episodes
-      (default: one per world).
+      every ``episodes_per_world`` resets); evaluation cycles over ``eval_worlds`` with
+      ``eval_episodes`` episodes (default: one per world).
     - ``task``: ``"budget"`` (``max_steps`` scans, no termination: the agent cannot profit from
       delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.tasks`.
     - ``noise``, ``max_steps``: the environment's localisation noise level and episode length

@@ -195,3 +195,27 @@ def test_update_blocks_equals_update_on_the_whole_grid():
     np.testing.assert_array_equal(by_blocks.metrics().l1, full.metrics().l1)
     with pytest.raises(MetricInputError, match="probability blocks"):
         by_blocks.update_blocks(touched, blocks[:2])
+
+
+def test_update_totals_gives_the_bits_of_update_blocks():
+    """The simulator's path — Σp and out-of-band counts kept by the map, blocks only for the
+    coverage search — against the blocks path, on map-like probabilities (≥ the 0.12 clamp)."""
+    rng = np.random.default_rng(8)
+    gt = np.zeros((20, 20, 10), bool)
+    gt[:, :10] = rng.random((20, 10, 10)) < 0.05  # cuboids 0 and 2 hold ground truth
+    known = rng.random(gt.shape) < 0.4
+    prob = np.where(known, 0.12 + 0.85 * rng.random(gt.shape), 0.5).astype(np.float32)
+    prob[10:, 10:] = 0.5  # cuboid 3 unobserved
+    blocks = np.stack([prob[i * 10 : i * 10 + 10, j * 10 : j * 10 + 10] for i in (0, 1)
+                       for j in (0, 1)])  # fmt: skip
+    touched = np.arange(4)
+    expected = QualityTracker(gt).update_blocks(touched, blocks)
+    tracker = QualityTracker(gt)
+    sums = blocks.astype(np.float64).sum(axis=(1, 2, 3))
+    outside = ((blocks <= np.float32(0.4)) | (blocks >= np.float32(0.6))).sum(axis=(1, 2, 3))
+    search = tracker.needs_coverage(touched, outside)
+    assert search.tolist() == [True, False, True, False]
+    summary = tracker.update_totals(touched, sums, outside, blocks[search])
+    np.testing.assert_equal(astuple(summary), astuple(expected))
+    with pytest.raises(MetricInputError, match="observed cuboids holding ground truth"):
+        tracker.update_totals(touched, sums, outside, blocks)

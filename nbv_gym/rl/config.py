@@ -64,8 +64,9 @@ class TrainConfig:
 
     - ``algorithm``: one of :data:`ALGORITHMS`.
     - ``total_timesteps``: environment steps over all parallel environments.
-    - ``n_envs``: parallel environments (``SubprocVecEnv`` when > 1); each cycles over its share
-      of ``train_worlds``, one world per episode.
+    - ``n_envs``: parallel environments (worker processes without torch when > 1,
+      :mod:`~nbv_gym.rl.vecenv`); each cycles over its share of ``train_worlds``, one world per
+      episode.
     - ``train_worlds`` / ``eval_worlds``: world names or spec files, or one world distribution
       (``random:mixed``, ``random:trees``, …: a world drawn from a pool of ``world_pool_size``
       every ``episodes_per_world`` resets); evaluation cycles over ``eval_worlds`` with

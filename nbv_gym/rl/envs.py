@@ -1,12 +1,15 @@
 """Training environments: ``Explore-v0`` cycling over a list of worlds, one world per episode, or
 drawing from a world distribution (``random:…``) at every reset.
 
-Workers of a ``SubprocVecEnv`` build these by name (:func:`make_world_cycle`), so they import
-nbv-gym themselves; Embree's thread pool does not survive ``fork``, hence ``forkserver``.
+Workers of a ``VecEnv`` build these by name (:func:`make_world_cycle`), so they import nbv-gym
+themselves; Embree's thread pool does not survive ``fork``, hence ``forkserver``. Nothing here
+imports torch or stable-baselines3 (but SB3's ``Monitor`` when asked for), so the training
+workers (:class:`~nbv_gym.rl.vecenv.LeanSubprocVecEnv`) stay without them.
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import gymnasium
@@ -78,12 +81,52 @@ class WorldCycleEnv(gymnasium.Env):
         return self.env.action_masks()
 
 
-def make_world_cycle(monitor: bool = True, **kwargs: Any) -> gymnasium.Env:
-    """A :class:`WorldCycleEnv` (``kwargs`` go to it), wrapped in SB3's ``Monitor`` so episode
-    returns and lengths reach the logs."""
+class EpisodeMonitor(gymnasium.Wrapper):
+    """SB3's ``Monitor`` without SB3 (whose import brings torch): at an episode's end
+    ``info["episode"]`` holds the return ``r`` (rounded to 6 digits), the length ``l``, the
+    seconds ``t`` since this wrapper was made, and ``info[key]`` for each of ``info_keywords``.
+    SB3 logs ``r`` and ``l``; :class:`~nbv_gym.rl.callbacks.EpisodeLog` writes them out."""
+
+    def __init__(self, env: gymnasium.Env, info_keywords: tuple[str, ...] = ()):
+        super().__init__(env)
+        self.info_keywords = info_keywords
+        self.t_start = time.time()
+        self.rewards: list[float] = []
+
+    def reset(self, **kwargs):
+        self.rewards = []
+        return self.env.reset(**kwargs)
+
+    def step(self, action):
+        observation, reward, terminated, truncated, info = self.env.step(action)
+        self.rewards.append(float(reward))
+        if terminated or truncated:
+            info["episode"] = {
+                "r": round(sum(self.rewards), 6),  # summed as SB3's Monitor sums
+                "l": len(self.rewards),
+                "t": round(time.time() - self.t_start, 6),
+                **{key: info[key] for key in self.info_keywords},
+            }
+        return observation, reward, terminated, truncated, info
+
+
+#: What :func:`make_world_cycle` wraps its environment in: ``"lean"`` (:class:`EpisodeMonitor`,
+#: for training workers), ``"sb3"`` (SB3's ``Monitor``, which SB3's evaluation recognises), None.
+MONITORS = ("lean", "sb3", None)
+#: The step infos copied into ``info["episode"]``.
+EPISODE_INFO_KEYS = ("q", "discovered")
+
+
+def make_world_cycle(monitor: str | None = "lean", **kwargs: Any) -> gymnasium.Env:
+    """A :class:`WorldCycleEnv` (``kwargs`` go to it) wrapped in the episode monitor ``monitor``
+    (one of :data:`MONITORS`), so episode returns and lengths reach the logs."""
+    if monitor not in MONITORS:
+        raise ValueError(f"monitor: expected one of {MONITORS}, got {monitor!r}")
     env = WorldCycleEnv(**kwargs)
-    if not monitor:
+    if monitor is None:
         return env
+    if monitor == "lean":
+        return EpisodeMonitor(env, info_keywords=EPISODE_INFO_KEYS)
     from stable_baselines3.common.monitor import Monitor
 
-    return Monitor(env, info_keywords=("q", "discovered"))
+    return Monitor(env, info_keywords=EPISODE_INFO_KEYS)

@@ -117,9 +117,10 @@ def set_torch_threads(threads: int, n_envs: int) -> None:
 def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     """The training ``VecEnv``: ``n_envs`` world-cycling environments, environment ``i`` cycling
     over ``train_worlds[i::n_envs]`` (all of them, shifted by ``i``, when there are fewer worlds
-    than environments), in subprocesses when ``n_envs`` > 1."""
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+    than environments), in worker processes without torch when ``n_envs`` > 1."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
 
+    from nbv_gym.rl.vecenv import LeanSubprocVecEnv
     from nbv_gym.sweep.worker import worker_environment
 
     factories = [
@@ -130,19 +131,19 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
         envs = DummyVecEnv(factories)
     else:
         with worker_environment():  # workers share few cores: no nested thread pools
-            envs = SubprocVecEnv(factories, start_method="forkserver")
+            envs = LeanSubprocVecEnv(factories, start_method="forkserver")
     envs.seed(config.seed + seed_offset)
     return envs
 
 
-
 def make_eval_env(config: TrainConfig):
     """The evaluation ``VecEnv``: one environment in this process cycling over ``eval_worlds``
-    (``train_worlds`` when there are none)."""
+    (``train_worlds`` when there are none), wrapped in SB3's ``Monitor``, which SB3's evaluation
+    looks for."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     worlds = config.eval_worlds or config.train_worlds
-    envs = DummyVecEnv([partial(_env_factory, config, worlds)])
+    envs = DummyVecEnv([partial(_env_factory, config, worlds, monitor="sb3")])
     envs.seed(config.seed + 10_000)
     return envs
 
@@ -180,10 +181,11 @@ def _toml_value(value: Any) -> str:
     return repr(value)
 
 
-def _env_factory(config: TrainConfig, worlds: tuple[str, ...]):
+def _env_factory(config: TrainConfig, worlds: tuple[str, ...], monitor: str = "lean"):
     from nbv_gym.rl.envs import make_world_cycle
 
     return make_world_cycle(
+        monitor=monitor,
         worlds=worlds,
         task=config.task,
         noise=config.noise,

@@ -1,0 +1,167 @@
+"""A ``VecEnv`` of environments in worker processes that import neither torch nor SB3.
+
+SB3's ``SubprocVecEnv`` runs its worker function from a module that imports stable-baselines3,
+and with it torch, in every worker: ~200 MiB of resident memory per worker that no environment
+uses. :class:`LeanSubprocVecEnv` keeps SB3's ``VecEnv`` contract and its worker protocol (step,
+reset with seeds and options, ``terminal_observation`` and ``TimeLimit.truncated`` at episode
+ends, attributes, methods, wrappers), with the child side in :mod:`nbv_gym.rl.vecworker`. An
+exception in an environment is raised in the parent, with the worker's traceback as its cause.
+
+Like every ``forkserver`` or ``spawn`` child, a worker imports the parent's main module (as
+``__mp_main__``): a script whose top level imports torch or SB3 brings them back into every
+worker. ``nbv-gym train``'s main module is its console script, which imports neither; scripts
+should import SB3 inside functions (``experiments/worker_rss.py`` does).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import cloudpickle
+import gymnasium
+import numpy as np
+from stable_baselines3.common.vec_env.base_vec_env import (
+    VecEnv,
+    VecEnvIndices,
+    VecEnvObs,
+    VecEnvStepReturn,
+)
+
+from nbv_gym.rl import vecworker
+
+
+class WorkerTraceback(Exception):
+    """The traceback of an exception raised in a worker process (the ``__cause__`` of the
+    exception the parent raises)."""
+
+    def __str__(self) -> str:
+        return "\n" + self.args[0]
+
+
+class LeanSubprocVecEnv(VecEnv):
+    """The environments built by ``env_fns``, one worker process each, started with
+    ``start_method`` (``forkserver``: Embree's thread pool does not survive ``fork``)."""
+
+    def __init__(
+        self, env_fns: Sequence[Callable[[], gymnasium.Env]], start_method: str = "forkserver"
+    ):
+        context = multiprocessing.get_context(start_method)
+        self.remotes, self.processes = [], []
+        for env_fn in env_fns:
+            remote, work_remote = context.Pipe()
+            process = context.Process(
+                target=vecworker.serve,
+                args=(work_remote, remote, cloudpickle.dumps(env_fn)),
+                daemon=True,  # a crashed parent leaves no workers behind
+            )
+            process.start()
+            work_remote.close()
+            self.remotes.append(remote)
+            self.processes.append(process)
+        self.waiting = self.closed = False
+        observation_space, action_space = self._call("get_spaces", None, [0])[0]
+        super().__init__(len(env_fns), observation_space, action_space)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        for remote, action in zip(self.remotes, actions, strict=True):
+            remote.send(("step", action))
+        self.waiting = True
+
+    def step_wait(self) -> VecEnvStepReturn:
+        self.waiting = False
+        results = self._receive(range(self.num_envs))
+        observations, rewards, dones, infos, reset_infos = map(list, zip(*results, strict=True))
+        for i, reset_info in enumerate(reset_infos):
+            if reset_info is not None:  # the infos of each environment's latest reset
+                self.reset_infos[i] = reset_info
+        return self._stack(observations), np.stack(rewards), np.stack(dones), infos
+
+    def reset(self) -> VecEnvObs:
+        indices = range(self.num_envs)
+        for i in indices:
+            self.remotes[i].send(("reset", (self._seeds[i], self._options[i])))
+        observations, reset_infos = map(list, zip(*self._receive(indices), strict=True))
+        self.reset_infos = reset_infos
+        self._reset_seeds()  # seeds and options serve one reset
+        self._reset_options()
+        return self._stack(observations)
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        if self.waiting:
+            self._receive(range(self.num_envs), raise_errors=False)
+        for remote in self.remotes:
+            try:
+                remote.send(("close", None))
+            except OSError:  # that worker has exited already
+                pass
+        for process in self.processes:
+            process.join()
+        for remote in self.remotes:
+            remote.close()
+        self.closed = True
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return self._call("render", None, None)
+
+    def has_attr(self, attr_name: str) -> bool:
+        return all(self._call("has_attr", attr_name, None))
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return self._call("get_attr", attr_name, indices)
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        self._call("set_attr", (attr_name, value), indices)
+
+    def env_method(
+        self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
+    ) -> list[Any]:
+        return self._call("env_method", (method_name, method_args, method_kwargs), indices)
+
+    def env_is_wrapped(
+        self, wrapper_class: type[gymnasium.Wrapper], indices: VecEnvIndices = None
+    ) -> list[bool]:
+        # by name: unpickling the class (SB3's Monitor) would import torch in the workers
+        name = (wrapper_class.__module__, wrapper_class.__qualname__)
+        return self._call("is_wrapped", name, indices)
+
+    def _call(self, command: str, data: Any, indices: VecEnvIndices) -> list[Any]:
+        """Send ``(command, data)`` to the environments ``indices`` and return their answers."""
+        indices = list(self._get_indices(indices))
+        for i in indices:
+            self.remotes[i].send((command, data))
+        return self._receive(indices)
+
+    def _receive(self, indices, raise_errors: bool = True) -> list[Any]:
+        """The answers of the workers ``indices``, all read before the first error is raised so
+        that every pipe stays in step."""
+        answers = [(i, *self._receive_one(i)) for i in indices]
+        for i, ok, result in answers:
+            if not ok and raise_errors:
+                error, text = result
+                raise error from WorkerTraceback(f"in environment {i}:\n{text}")
+        return [result for _, _, result in answers]
+
+    def _receive_one(self, i: int) -> tuple[bool, Any]:
+        try:
+            return self.remotes[i].recv()
+        except (EOFError, ConnectionResetError):
+            process = self.processes[i]
+            process.join(timeout=1.0)
+            raise EOFError(
+                f"The worker of environment {i} (pid {process.pid}) exited with code "
+                f"{process.exitcode}; its output above may say why."
+            ) from None
+
+    def _stack(self, observations: list) -> VecEnvObs:
+        """Observations of each environment stacked along a first axis, per key of a ``Dict``
+        space or item of a ``Tuple`` space."""
+        space = self.observation_space
+        if isinstance(space, gymnasium.spaces.Dict):
+            return {key: np.stack([o[key] for o in observations]) for key in space.spaces}
+        if isinstance(space, gymnasium.spaces.Tuple):
+            return tuple(np.stack(items) for items in zip(*observations, strict=True))
+        return np.stack(observations)

@@ -37,12 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy import ndimage
 
 from nbv_gym.arrays import BoolArray, FloatArray
 from nbv_gym.config import check
 from nbv_gym.errors import ConfigError, NbvGymError
 from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.morphology import dilate, erode, half_widths
 
 
 @dataclass(frozen=True)
@@ -108,10 +108,10 @@ class NavigationLayer:
         self.known_band_m = tuple(known_band_m)
         self.occupied_band_m = tuple(occupied_band_m)
         self.search_range_m = float(search_range_m)
-        self._robot_disc = disc(robot_radius_m, cell_m)
+        self._robot_widths = half_widths(disc(robot_radius_m, cell_m))
         self._escape_disc = disc(escape_radius_m, cell_m)
-        self._unknown_disc = disc(frontier_unknown_dilation_m, cell_m)
-        self._occupied_disc = disc(frontier_occupied_margin_m, cell_m)
+        self._unknown_widths = half_widths(disc(frontier_unknown_dilation_m, cell_m))
+        self._occupied_widths = half_widths(disc(frontier_occupied_margin_m, cell_m))
         self._inner = _inner_cells(self.grid, border_margin_m)
         centres = goal_grid.xy_centres()
         self._goal_cells = self.grid.index(np.column_stack([centres, np.zeros(len(centres))]))[
@@ -156,9 +156,9 @@ class NavigationLayer:
         """Recompute eroded free space and frontiers from :attr:`known` and :attr:`occupied`
         (after they were changed in place, e.g. by :meth:`OccupancyMap.project_into`)."""
         free = self.free
-        self.eroded_free = ndimage.binary_erosion(free, self._robot_disc, border_value=0)
-        unknown_near = ndimage.binary_dilation(~self.known, self._unknown_disc)
-        occupied_near = ndimage.binary_dilation(self.occupied, self._occupied_disc)
+        self.eroded_free = erode(free, self._robot_widths)
+        unknown_near = dilate(~self.known, self._unknown_widths)
+        occupied_near = dilate(self.occupied, self._occupied_widths)
         self.frontier_mask = unknown_near & self.eroded_free & ~occupied_near & self._inner
         self._goals = None
 
@@ -243,7 +243,7 @@ class NavigationLayer:
         if self.robot_goal >= 0:
             mask[self.robot_goal] = False
         cost = np.where(mask, np.minimum(path_length / self.search_range_m, 1.0), 1.0)
-        near = ndimage.binary_dilation(self.frontier_mask, np.ones((3, 3), bool))
+        near = dilate(self.frontier_mask, _NEIGHBOURS)
         frontier = near[i, j] & mask
         for array in (path_length, mask, cost, frontier):
             array.flags.writeable = False
@@ -258,6 +258,10 @@ class _Goals:
     mask: np.ndarray
     cost: np.ndarray
     frontier: np.ndarray
+
+
+#: Row half widths of the 3 × 3 block: a cell and its 8 neighbours.
+_NEIGHBOURS = half_widths(np.ones((3, 3), bool))
 
 
 def disc(radius_m: float, cell_m: float) -> np.ndarray:

@@ -6,9 +6,10 @@ included, the return's voxel excluded) gets a miss. A return beyond the range ca
 the range along its ray and marks nothing occupied. Log-odds are clamped to the clamping bounds, as
 in OctoMap with ``insertPointCloud(cloud, origin, max_range)``.
 
-Storage is one float32 per voxel, NaN for unknown (640 × 640 × 90 voxels: 147.5 MB), in z layers
-of 4 × 4 (x, y) tiles for cache locality (:mod:`nbv_gym.mapping.traversal`), plus a per-scan
-marking bitset over the cube of the sensor range (2.0 MB for 20 m at 0.1 m).
+Storage is one float32 per voxel (640 × 640 × 90 voxels: 147.5 MB), zero bits for unknown so that
+only pages some scan wrote are resident (:mod:`nbv_gym.mapping.store`), in bricks of 16 × 16 × 4
+voxels, one page each, for locality (:mod:`nbv_gym.mapping.traversal`), plus a per-scan marking
+bitset over the cube of the sensor range (2.0 MB for 20 m at 0.1 m).
 """
 
 from __future__ import annotations
@@ -26,8 +27,9 @@ from nbv_gym.config import check
 from nbv_gym.errors import ConfigError, DataFileError, NbvGymError, PoseError
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
+from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_known
 from nbv_gym.mapping.tally import NO_LOG, CellTally
-from nbv_gym.mapping.traversal import TILE, insert_scan, tile_index
+from nbv_gym.mapping.traversal import BRICK, axis_offsets, insert_scan, tile_index
 
 _FORMAT = "nbv_gym.OccupancyMap/1"
 
@@ -139,15 +141,16 @@ class OccupancyMap:
         self._bounds = np.array([logit(p_clamp_min), logit(p_clamp_max)], np.float32)
         self._lo_occupied = np.float32(logit(p_occupied))
         nx, ny, nz = grid.shape
-        self._tiles_xy = (-(-nx // TILE), -(-ny // TILE))
-        self._dims = np.array([*self._tiles_xy, nx, ny, nz], np.int64)
-        self._store = np.full(
-            nz * self._tiles_xy[0] * self._tiles_xy[1] * TILE * TILE, np.nan, np.float32
-        )
+        self._bricks = tuple(-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
+        self._dims = np.array([*self._bricks[:2], nx, ny, nz], np.int64)
+        self._offsets = axis_offsets(self._bricks)
+        self._pages = ZeroPages(math.prod(self._bricks) * math.prod(BRICK))
+        self._store = self._pages.array
         self._window_shape = self._marking_window(grid, max_range_m)
         self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
-        self._dirty = np.zeros((nz, self._tiles_xy[0]), bool)  # (z, tile row) written since the
-        # last clear(): each a contiguous run of tiles_y tiles in the store
+        self._dirty = np.zeros(self._pages.n_blocks, bool)  # store blocks written since clear()
+        self._first_scan = np.zeros(self._pages.n_blocks, bool)  # blocks the first scan wrote
+        self._scans = 0  # since the last clear()
         self._sigmoid_cache = new_cache()
 
     @classmethod
@@ -206,7 +209,7 @@ class OccupancyMap:
         log = NO_LOG if tally is None else tally.log
         n_occupied, n_changes = insert_scan(
             self._store,
-            self._dims,
+            self._offsets,
             origin_grid,
             points_grid,
             self.params["max_range_m"] / self.grid.res,
@@ -219,17 +222,22 @@ class OccupancyMap:
             log,
             self._dirty,
         )
+        if not self._scans:
+            self._first_scan[:] = self._dirty
+        self._scans += 1
         if tally is not None and not tally.apply(n_changes, self._sigmoid_cache):
             cells = np.argwhere(touched)
             tally.recount(cells, self.probability_blocks(region, cells))
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)
 
     def clear(self) -> None:
-        """Forget every voxel (all unknown again), reusing the storage: only the rows of tiles
-        written since the last clear are reset."""
-        rows = self._store.reshape(*self._dirty.shape, -1)  # (z, tile row, tiles_y · 16)
-        rows[self._dirty] = np.nan
+        """Forget every voxel (all unknown again), reusing the storage: only the blocks written
+        since the last clear are reset. Their memory pages are handed back to the system, except
+        those the first scan after the last clear wrote: an episode's first scan is taken from
+        the world's start pose, so the next one writes them again (and need not fault them in)."""
+        self._pages.zero_blocks(self._dirty, self._first_scan)
         self._dirty[:] = False
+        self._scans = 0
 
     def _origin_in_grid(self, origin: FloatArray) -> np.ndarray:
         """(3,) float64 sensor position in grid units; PoseError outside the box."""
@@ -286,10 +294,10 @@ class OccupancyMap:
     @property
     def n_known(self) -> int:
         """Number of known voxels."""
-        return int(np.count_nonzero(~np.isnan(self._store)))
+        return int(np.count_nonzero(self._store.view(np.uint32)))
 
     def memory_bytes(self) -> int:
-        """Bytes held by the map's arrays."""
+        """Bytes the map's arrays span (only the store's written pages are resident)."""
         return self._store.nbytes + self._marks.nbytes
 
     def logodds_in(self, grid: GridSpec) -> np.ndarray:
@@ -387,52 +395,56 @@ class OccupancyMap:
         if cells is None:
             cells = np.argwhere(np.ones(grid.shape[:2], bool))
         _project_columns(
-            self._store, self._dims, x0, y0, factor,
+            self._store, *self._offsets, x0, y0, factor,
             np.array(self._band_layers(known_band_m), np.int64),
             np.array(self._band_layers(occupied_band_m), np.int64),
-            self._lo_occupied, np.asarray(cells, np.int64).reshape(-1, 2), known, occupied,
+            _positive_bound(self._lo_occupied), np.asarray(cells, np.int64).reshape(-1, 2), known,
+            occupied,
         )  # fmt: skip
 
-    def _layers(self) -> np.ndarray:
-        """(nz, tiles_x, tiles_y, 4, 4) view of the tiled storage."""
-        return self._store.reshape(self.grid.shape[2], *self._tiles_xy, TILE, TILE)
+    def _brick_view(self) -> np.ndarray:
+        """(BZ, BX, BY, z, X, Y, x, y) view of the bricked storage: brick, tile in the brick
+        (4 z layers × 4 × 4 tiles) and voxel in the tile (4 × 4); voxel (i, j, k) is at
+        i = (BX·4 + X)·4 + x, j = (BY·4 + Y)·4 + y, k = BZ·4 + z."""
+        bx, by, bz = self._bricks
+        return self._store.reshape(bz, bx, by, 4, 4, 4, 4, 4)
 
     def _dense(self, lo, hi) -> np.ndarray:
-        """float32 copy of the voxels ``lo ≤ (i, j, k) < hi`` in (x, y, z) order."""
-        (x0, y0, z0), (x1, y1, z1) = lo, hi
-        tx0, ty0 = x0 // TILE, y0 // TILE
-        tx1, ty1 = -(-x1 // TILE), -(-y1 // TILE)
-        block = self._layers()[z0:z1, tx0:tx1, ty0:ty1]  # (z, X, Y, x, y)
-        dense = block.transpose(1, 3, 2, 4, 0).reshape(
-            (tx1 - tx0) * TILE, (ty1 - ty0) * TILE, z1 - z0
-        )
-        return np.ascontiguousarray(
-            dense[x0 - tx0 * TILE : x1 - tx0 * TILE, y0 - ty0 * TILE : y1 - ty0 * TILE]
-        )
+        """float32 log-odds (NaN = unknown) of the voxels ``lo ≤ (i, j, k) < hi`` in (x, y, z)
+        order."""
+        first = [a // b for a, b in zip(lo, BRICK, strict=True)]
+        end = [-(-a // b) for a, b in zip(hi, BRICK, strict=True)]
+        bricks = self._brick_view()[first[2] : end[2], first[0] : end[0], first[1] : end[1]]
+        shape = [(e - f) * b for f, e, b in zip(first, end, BRICK, strict=True)]
+        dense = bricks.transpose(1, 4, 6, 2, 5, 7, 0, 3).reshape(shape)
+        start = [a - f * b for a, f, b in zip(lo, first, BRICK, strict=True)]
+        return decoded(dense[tuple(slice(s, s + h - a) for s, a, h in zip(start, lo, hi, strict=True))])
 
     def _set_dense(self, logodds: np.ndarray) -> None:
         """Replace the whole map by (nx, ny, nz) float32 log-odds (NaN = unknown)."""
         nx, ny, nz = self.grid.shape
-        tx, ty = self._tiles_xy
-        padded = np.full((tx * TILE, ty * TILE, nz), np.nan, np.float32)
-        padded[:nx, :ny] = logodds
-        tiled = padded.reshape(tx, TILE, ty, TILE, nz).transpose(4, 0, 2, 1, 3)
-        self._store[:] = tiled.ravel()
+        bx, by, bz = self._bricks
+        padded = np.full((bx * 16, by * 16, bz * 4), np.nan, np.float32)
+        padded[:nx, :ny, :nz] = logodds
+        bricked = padded.reshape(bx, 4, 4, by, 4, 4, bz, 4).transpose(6, 0, 3, 7, 1, 4, 2, 5)
+        bricked = encoded(bricked.ravel())
+        known = np.flatnonzero(bricked.view(np.uint32))  # write only the pages that hold voxels
+        self._pages.zero(0, self._store.size)
+        self._store[known] = bricked[known]
 
     def _voxels_at_least(self, threshold: float) -> tuple[np.ndarray, np.ndarray]:
         """(n, 3) indices and (n,) float32 log-odds of the known voxels with probability ≥
         ``threshold`` (≤ 0: all known voxels), in (x, y, z) C order."""
-        layers = self._layers()
-        if threshold <= 0:
-            keep = ~np.isnan(layers)
-        elif threshold >= 1:
-            keep = np.zeros(layers.shape, bool)
-        else:
-            keep = _at_least(layers, np.float32(logit(threshold)))
-        z, tx, ty, x, y = np.nonzero(keep)
-        index = np.column_stack([tx * TILE + x, ty * TILE + y, z])
+        bricks = self._brick_view()
+        keep = bricks != 0
+        if threshold >= 1:
+            keep[:] = False
+        elif threshold > 0:
+            keep &= bricks >= np.float32(logit(threshold))
+        bz, bx, by, z, tx, ty, x, y = np.nonzero(keep)
+        index = np.column_stack([(bx * 4 + tx) * 4 + x, (by * 4 + ty) * 4 + y, bz * 4 + z])
         order = np.lexsort(index.T[::-1])
-        return index[order], layers[keep][order]
+        return index[order], decoded(bricks[keep][order])
 
     def _voxel_offset(self, grid: GridSpec) -> np.ndarray:
         """(3,) int64 index in the map of ``grid``'s first voxel; ConfigError if not aligned."""
@@ -557,11 +569,8 @@ def _check_params(params: dict[str, float], path: str | Path) -> None:
 @njit(cache=True)
 def _gather_blocks(store, dims, offset, cells, out):
     """Fill ``out`` (k, f, f, f) with the log-odds (NaN = unknown, also outside the map) of
-    ``cells`` (coarse indices) from the tiled ``store``, read layer by layer (the store is
-    z-major)."""
-    tile = TILE  # a compile-time constant: the divisions below become shifts
-    tiles_x, tiles_y, nx, ny, nz = dims
-    layer = tiles_x * tiles_y * tile * tile
+    ``cells`` (coarse indices) from the bricked ``store``."""
+    bricks_x, bricks_y, nx, ny, nz = dims
     f = out.shape[1]
     out[:] = np.nan
     for c in range(cells.shape[0]):
@@ -570,40 +579,53 @@ def _gather_blocks(store, dims, offset, cells, out):
         z0 = offset[2] + cells[c, 2] * f
         for d in range(max(0, -z0), min(f, nz - z0)):
             for a in range(max(0, -x0), min(f, nx - x0)):
-                x = x0 + a
-                row = (z0 + d) * layer + (x // tile) * tiles_y * tile * tile + (x % tile) * tile
                 for b in range(max(0, -y0), min(f, ny - y0)):
-                    y = y0 + b
-                    out[c, a, b, d] = store[row + (y // tile) * tile * tile + y % tile]
+                    value = store[tile_index(x0 + a, y0 + b, z0 + d, bricks_x, bricks_y)]
+                    if is_known(value):
+                        out[c, a, b, d] = value if value != KNOWN_ZERO else np.float32(0.0)
 
 
 @njit(cache=True)
-def _project_columns(store, dims, x0, y0, f, known_layers, occupied_layers, lo_occupied, cells,
-                     known, occupied):  # fmt: skip
+def _project_columns(store, x_offset, y_offset, z_offset, x0, y0, f, known_layers, occupied_layers,
+                     bound, cells, known, occupied):  # fmt: skip
     """Set ``known[i, j]`` and ``occupied[i, j]`` of each (i, j) of ``cells``: whether some voxel
     of the cell's f × f columns (first column (x0 + f·i, y0 + f·j)) in the [k0, k1) layers is
-    known, respectively at least ``lo_occupied``."""
-    tiles_x, tiles_y = dims[0], dims[1]
+    known, respectively known and ≥ ``bound`` (a positive bound needs no test of known-ness:
+    unknown is 0). Voxel (a, b, k) is ``store[x_offset[a] + y_offset[b] + z_offset[k]]``
+    (:func:`~nbv_gym.mapping.traversal.axis_offsets`); the loops are written out (a helper
+    taking the arrays would cost numba reference counting per call)."""
     for c in range(cells.shape[0]):
         i, j = cells[c, 0], cells[c, 1]
         xa, ya = x0 + f * i, y0 + f * j
-        known[i, j] = _any_voxel(store, tiles_x, tiles_y, xa, ya, f, known_layers, False, 0.0)
-        occupied[i, j] = _any_voxel(
-            store, tiles_x, tiles_y, xa, ya, f, occupied_layers, True, lo_occupied
-        )
+        for target in range(2):  # 0: known, 1: occupied
+            layers = occupied_layers if target else known_layers
+            found = False
+            for k in range(layers[0], layers[1]):
+                for a in range(xa, xa + f):
+                    base = z_offset[k] + x_offset[a]
+                    for b in range(ya, ya + f):
+                        value = store[base + y_offset[b]]
+                        if target:
+                            found = value >= bound and (bound > 0.0 or is_known(value))
+                        else:
+                            found = is_known(value)
+                        if found:
+                            break
+                    if found:
+                        break
+                if found:
+                    break
+            if target:
+                occupied[i, j] = found
+            else:
+                known[i, j] = found
 
 
-@njit(cache=True, inline="always")
-def _any_voxel(store, tiles_x, tiles_y, xa, ya, f, layers, at_least, threshold):
-    """Whether a voxel of columns [xa, xa + f) × [ya, ya + f) in ``layers`` [k0, k1) is known
-    (``at_least`` False) or known and ≥ ``threshold`` (``at_least`` True)."""
-    for k in range(layers[0], layers[1]):
-        for a in range(xa, xa + f):
-            for b in range(ya, ya + f):
-                value = store[tile_index(a, b, k, tiles_x, tiles_y)]
-                if (value >= threshold) if at_least else not np.isnan(value):
-                    return True
-    return False
+def _positive_bound(threshold: np.float32) -> np.float32:
+    """A stored-value threshold equivalent to "known and ≥ ``threshold``": for a threshold of 0
+    (p_occupied = 0.5) the least positive value, :data:`KNOWN_ZERO` (a stored known 0), so that
+    the kernel tests one comparison."""
+    return max(threshold, KNOWN_ZERO) if threshold >= 0 else threshold
 
 
 def _at_least(logodds: np.ndarray, threshold: np.float32) -> np.ndarray:

@@ -9,9 +9,11 @@ The map traversal mirrors OctoMap's ``computeRayKeys`` (Amanatides–Woo 3D DDA)
 is the sensor's, the endpoint's cell is excluded, ties between axes go to the later axis, and the walk
 stops early if it overshoots the ray's length (a numerical safeguard OctoMap has too).
 
-Map storage is *tiled* for cache locality: a flat float32 array of z layers, each layer a row-major
-grid of 4 × 4 (x, y) tiles of 16 voxels — one 64-byte cache line — so that a mostly horizontal ray
-touches a new cache line every few cells instead of at every cell (see :func:`tile_index`).
+Map storage is *bricked* for locality (see :func:`tile_index`): a flat float32 array of bricks of
+16 × 16 × 4 (x, y, z) voxels, each one 4 KiB page (:data:`BLOCK <nbv_gym.mapping.store.BLOCK>`
+values), made of 4 × 4 (x, y) tiles of 16 voxels — one 64-byte cache line. A ray touches a new
+cache line every few cells and a new page every few dozen, and a scan makes resident only the pages
+of the volume it reaches (:mod:`nbv_gym.mapping.store`).
 """
 
 from __future__ import annotations
@@ -21,15 +23,34 @@ import math
 import numpy as np
 from numba import njit
 
+from nbv_gym.mapping.store import is_known, stored
+
 _BIG = 1e300
-TILE = 4  # voxels per tile side along x and y
+#: Voxels per brick side along x, y and z (16 · 16 · 4 = BLOCK values: one page).
+BRICK = (16, 16, 4)
 
 
 @njit(cache=True, inline="always")
-def tile_index(ix, iy, iz, tiles_x, tiles_y) -> int:
-    """Flat index of voxel ``(ix, iy, iz)`` in tiled storage with ``tiles_x × tiles_y`` tiles per
-    z layer."""
-    return ((iz * tiles_x + (ix >> 2)) * tiles_y + (iy >> 2)) * 16 + ((ix & 3) << 2) + (iy & 3)
+def tile_index(ix, iy, iz, bricks_x, bricks_y) -> int:
+    """Flat index of voxel ``(ix, iy, iz)`` in bricked storage with ``bricks_x × bricks_y``
+    bricks per layer of bricks: bricks in (z, x, y) row-major order; inside a brick, 4 z layers of
+    4 × 4 (x, y) tiles; inside a tile, 4 × 4 (x, y) voxels row-major."""
+    brick = ((iz >> 2) * bricks_x + (ix >> 4)) * bricks_y + (iy >> 4)
+    tile = ((((iz & 3) << 2) | ((ix >> 2) & 3)) << 2) | ((iy >> 2) & 3)
+    return (brick << 10) | (tile << 4) | ((ix & 3) << 2) | (iy & 3)
+
+
+def axis_offsets(bricks: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of :func:`tile_index` along each axis, for a store of ``bricks`` (x, y, z)
+    bricks: three int64 arrays over the voxel indices with
+    ``tile_index(i, j, k) = x[i] + y[j] + z[k]`` (the bit fields do not overlap), so a loop over
+    voxels adds three table entries instead of recomputing the index."""
+    bx, by, bz = bricks
+    i, j, k = (np.arange(n * b, dtype=np.int64) for n, b in zip(bricks, BRICK, strict=True))
+    x = ((i >> 4) * by << 10) + (((i >> 2) & 3) << 6) + ((i & 3) << 2)
+    y = ((j >> 4) << 10) + (((j >> 2) & 3) << 4) + (j & 3)
+    z = ((k >> 2) * bx * by << 10) + ((k & 3) << 8)
+    return x, y, z
 
 
 @njit(cache=True, inline="always")
@@ -85,7 +106,7 @@ def _window_tuple(window):
 
 @njit(cache=True)
 def insert_scan(
-    store, dims, origin, points, max_range, deltas, bounds, marks, window, touched, cells, log,
+    store, offsets, origin, points, max_range, deltas, bounds, marks, window, touched, cells, log,
     dirty,
 ):
     """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
@@ -100,8 +121,10 @@ def insert_scan(
     three times slower when the voxel update was such a helper (measured).
 
     Args:
-        store: flat float32 tiled log-odds (:func:`tile_index`), NaN = unknown; updated in place.
-        dims: (tiles_x, tiles_y, nx, ny, nz) int64 tiles per layer and the map's shape in voxels.
+        store: flat float32 bricked log-odds (:func:`tile_index`) in the store's encoding
+            (:mod:`nbv_gym.mapping.store`: zero bits = unknown); updated in place.
+        offsets: the (x, y, z) int64 tables of :func:`axis_offsets`: voxel (i, j, k) is
+            ``store[x[i] + y[j] + z[k]]``.
         origin: (3,) float64 sensor position in grid units, inside the map.
         points: (n, 3) float64 finite returns in grid units.
         max_range: sensor range in grid units.
@@ -115,15 +138,16 @@ def insert_scan(
             contribution of its coarse cell index to the flat index (index × stride), −1 outside
             the coarse grid.
         log: (cell, old, new): the changes of voxels inside the coarse grid, one entry each
-            while the (capacity,) arrays last: int32 flat coarse ``cell``, float32 ``old`` and
-            ``new`` values.
-        dirty: (nz, tiles_x) bool: set for each (z layer, row of tiles) written.
+            while the (capacity,) arrays last: int32 flat coarse ``cell``, float32 ``old`` (NaN when
+            unknown) and ``new`` log-odds.
+        dirty: (bricks,) bool: set for each brick (block of the store) written; the voxels of a
+            brick not set are all unknown (0).
 
     Returns:
         Number of voxels that received a hit, number of changes inside the coarse grid (more
         than the log's capacity when they did not all fit).
     """
-    tiles_x, tiles_y = dims[0], dims[1]
+    x_offset, y_offset, z_offset = offsets
     w = _window_tuple(window)
     lo_min, lo_max = bounds[0], bounds[1]
     log_cell, log_old, log_new = log
@@ -164,21 +188,23 @@ def insert_scan(
             byte, mask = bit >> 3, np.uint8(1 << (bit & 7))
             if not marks[byte] & mask:  # the voxel's first update in this scan
                 marks[byte] |= mask
-                i = tile_index(cx, cy, cz, tiles_x, tiles_y)
-                old = store[i]
-                known = not math.isnan(old)
-                new = min(max((old if known else np.float32(0.0)) + delta, lo_min), lo_max)
+                i = x_offset[cx] + y_offset[cy] + z_offset[cz]
+                # unknown: 0, the log-odds a first update starts from; a brick not written since
+                # the map was cleared is all unknown, and not reading it spares a page fault
+                old = store[i] if dirty[i >> 10] else np.float32(0.0)
+                known = is_known(old)
+                new = min(max(old + delta, lo_min), lo_max)
                 n_hits += hit
                 if not (known and new == old):
-                    store[i] = new
-                    dirty[cz, cx >> 2] = True
+                    store[i] = stored(new)
+                    dirty[i >> 10] = True
                     ca, cb, cc = cells[0, cx], cells[1, cy], cells[2, cz]
                     if ca >= 0 and cb >= 0 and cc >= 0:
                         cell = ca + cb + cc
                         touched[cell] = True
                         if n_changes < log_cell.shape[0]:
                             log_cell[n_changes] = cell
-                            log_old[n_changes] = old
+                            log_old[n_changes] = old if known else np.float32(np.nan)
                             log_new[n_changes] = new
                         n_changes += 1
             if hit:

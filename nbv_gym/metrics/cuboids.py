@@ -536,7 +536,7 @@ def _checked_voxels(voxels: IntArray, grid_shape: tuple[int, ...]) -> IntArray:
 
 def _ground_truth_lists(voxels: IntArray, shape: tuple[int, int, int], n: int):
     """CSR lists of the occupied ground-truth ``voxels`` (k, 3) int (C order) per cuboid of the
-    cuboid grid ``shape``: ``start`` (cuboids + 1,) int64, ``voxels`` (k, 3) int64."""
+    cuboid grid ``shape``: ``start`` (cuboids + 1,) int64, ``voxels`` (k, 3) int32."""
     cx, cy, cz = shape
     voxels = np.asarray(voxels, np.int64)
     owner = (
@@ -547,7 +547,7 @@ def _ground_truth_lists(voxels: IntArray, shape: tuple[int, int, int], n: int):
     order = np.argsort(owner, kind="stable")
     counts = np.bincount(owner, minlength=cx * cy * cz)
     start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return start, voxels[order]
+    return start, voxels[order].astype(np.int32)
 
 
 @njit(cache=True, parallel=True)

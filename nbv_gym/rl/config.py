@@ -69,7 +69,8 @@ class TrainConfig:
       episode.
     - ``train_worlds`` / ``eval_worlds``: world names or spec files, or one world distribution
       (``random:mixed``, ``random:trees``, …: a world drawn from a pool of ``world_pool_size``
-      every ``episodes_per_world`` resets); evaluation cycles over ``eval_worlds`` with
+      every ``episodes_per_world`` resets, 4 by default: a switch to a world with trees costs
+      ~1.8 s CPU, and 4 cut budget training's CPU per step from 83 to 52 ms); evaluation cycles over ``eval_worlds`` with
       ``eval_episodes`` episodes (default: one per world).
     - ``task``: ``"budget"`` (``max_steps`` scans, no termination: the agent cannot profit from
       delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.tasks`.
@@ -96,7 +97,7 @@ class TrainConfig:
     train_worlds: tuple[str, ...] = TRAIN_WORLDS
     eval_worlds: tuple[str, ...] = EVAL_WORLDS
     world_pool_size: int = POOL_SIZE
-    episodes_per_world: int = 1
+    episodes_per_world: int = 4
     task: str = "budget"
     noise: int = 1
     max_steps: int = BUDGET_SCANS

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from nbv_gym.arrays import FloatArray, IntArray
 from nbv_gym.config import check
@@ -119,6 +118,8 @@ def _trunk(height_m: float, step_m: float) -> tuple[FloatArray, IntArray]:
 def _colonize(
     nodes: FloatArray, parent: IntArray, attractors: FloatArray, config: TreeConfig
 ) -> tuple[FloatArray, IntArray]:
+    from scipy.spatial import cKDTree  # here: loading a built world needs no scipy
+
     nodes, parent = list(nodes), list(parent)
     for _ in range(config.max_iterations):
         if len(attractors) == 0:
@@ -138,6 +139,8 @@ def _grow_step(
     nodes: FloatArray, attractors: FloatArray, config: TreeConfig
 ) -> tuple[IntArray, FloatArray] | None:
     """The new nodes of one iteration (their parents and positions), or None if none grow."""
+    from scipy.spatial import cKDTree
+
     tree = cKDTree(nodes)
     distance, nearest = tree.query(attractors, distance_upper_bound=config.influence_radius_m)
     pulled = np.isfinite(distance)

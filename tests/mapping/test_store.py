@@ -1,0 +1,86 @@
+"""The map's voxel store: zero bits mean unknown, a known log-odds of exactly 0 stays known, and
+forgetting voxels zeroes exactly the range asked for."""
+
+from __future__ import annotations
+
+import math
+import pickle
+
+import numpy as np
+
+from nbv_gym.grid import GridSpec
+from nbv_gym.mapping import OccupancyMap
+from nbv_gym.mapping.store import BLOCK, ZeroPages, decoded, encoded
+from nbv_gym.mapping.traversal import BRICK, axis_offsets, tile_index
+
+BOX = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 0.1)
+ORIGIN = np.array([0.05, 0.05, 0.05])  # centre of voxel (20, 20, 10)
+
+
+def test_a_hit_then_a_miss_of_equal_weight_leaves_a_known_voxel_at_log_odds_zero(tmp_path):
+    # p_miss = 1 − p_hit: a hit and a miss cancel exactly; the voxel is known, with p = 0.5
+    occupancy = OccupancyMap(
+        BOX, p_hit=0.7, p_miss=0.3, p_clamp_min=0.12, p_clamp_max=0.97, p_occupied=0.5,
+        max_range_m=20.0,
+    )  # fmt: skip
+    assert np.float32(math.log(0.7 / 0.3)) == -np.float32(math.log(0.3 / 0.7))
+    occupancy.insert(ORIGIN, [[1.05, 0.05, 0.05]])  # hit at voxel (30, 20, 10)
+    occupancy.insert(ORIGIN, [[2.05, 0.05, 0.05]])  # passes through it: a miss
+    lo = occupancy.logodds
+    assert lo[30, 20, 10] == 0.0 and not np.signbit(lo[30, 20, 10])
+    assert occupancy.known_mask(BOX)[30, 20, 10] and occupancy.occupied_mask(BOX)[30, 20, 10]
+    assert occupancy.probability(BOX)[30, 20, 10] == 0.5
+    assert occupancy.n_known == int((~np.isnan(lo)).sum()) == 21  # voxels 20..40 along x
+    coarse = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 1.0)
+    block = occupancy.logodds_blocks(coarse, [[3, 2, 1]])[0]  # voxels (30…39, 20…29, 10…19)
+    assert block[0, 0, 0] == 0.0 and np.isnan(block[0, 1, 0])
+    nav = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 0.5)
+    known, occupied = occupancy.project(nav, (-0.3, 1.0), (0.0, 1.0))
+    assert known[6, 4] and occupied[6, 4] and occupied[8, 4] and occupied.sum() == 2  # p = 0.5: occupied
+    occupancy.save(tmp_path / "map.npz")
+    np.testing.assert_array_equal(OccupancyMap.load(tmp_path / "map.npz").logodds, lo)
+    occupancy.insert(ORIGIN, [[2.05, 0.05, 0.05]])  # another miss starts from 0
+    assert occupancy.logodds[30, 20, 10] == np.float32(math.log(0.3 / 0.7))
+    occupancy.clear()
+    assert occupancy.n_known == 0 and np.isnan(occupancy.logodds).all()
+
+
+def test_encoding_round_trips_unknown_zero_and_values():
+    logodds = np.array([np.nan, 0.0, -0.0, 1.5, -2.0], np.float32)
+    stored = encoded(logodds)
+    assert stored.view(np.uint32).tolist()[:3] == [0, 1, 1]  # 1: the smallest subnormal
+    back = decoded(stored)
+    assert np.isnan(back[0]) and back[1:].tolist() == [0.0, 0.0, 1.5, -2.0]
+    assert not np.signbit(back[1:3]).any()
+
+
+def test_zero_pages_zero_exactly_the_range_and_pickle():
+    pages = ZeroPages(10_000)
+    pages.array[:] = np.arange(1, 10_001)
+    pages.zero(1_500, 7_300)  # unaligned at both ends, whole pages inside
+    pages.zero(9_000, 9_010)  # inside one page
+    expected = np.arange(1, 10_001, dtype=np.float32)
+    expected[1_500:7_300] = expected[9_000:9_010] = 0
+    np.testing.assert_array_equal(pages.array, expected)
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(pages)).array, expected)
+
+
+def test_zero_blocks_zero_the_flagged_blocks_kept_or_handed_back():
+    pages = ZeroPages(5 * BLOCK + 10)  # a partial last block
+    pages.array[:] = 7.0
+    flagged = np.array([True, False, True, True, False, True])
+    pages.zero_blocks(flagged, resident=np.array([False, False, True, False, False, False]))
+    blocks = np.pad(pages.array, (0, BLOCK - 10)).reshape(6, BLOCK)
+    assert (blocks[flagged] == 0).all() and (blocks[~flagged] == 7).all()
+
+
+def test_voxel_index_is_a_bijection_whose_bricks_are_store_blocks():
+    bx, by, bz = 3, 2, 2  # bricks
+    shape = (bx * BRICK[0], by * BRICK[1], bz * BRICK[2])
+    i, j, k = (a.ravel() for a in np.indices(shape))
+    index = np.array([tile_index(*v, bx, by) for v in zip(i, j, k, strict=True)])
+    assert np.array_equal(np.sort(index), np.arange(len(index)))
+    brick = ((k // BRICK[2]) * bx + i // BRICK[0]) * by + j // BRICK[1]
+    assert np.array_equal(index // BLOCK, brick) and math.prod(BRICK) == BLOCK
+    x, y, z = axis_offsets((bx, by, bz))
+    assert np.array_equal(x[i] + y[j] + z[k], index)

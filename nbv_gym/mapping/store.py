@@ -79,13 +79,20 @@ class ZeroPages:
         self.array = self._blocks.reshape(-1)[:n]
 
     def zero_blocks(self, blocks: np.ndarray, resident: np.ndarray) -> None:
-        """Zero the blocks flagged in the (n_blocks,) bool ``blocks``: those also flagged in
-        ``resident`` in place (their pages stay mapped, for writes expected soon), the others
-        handed back to the system."""
-        self._blocks[blocks & resident] = 0.0
-        release = np.diff((blocks & ~resident).view(np.int8), prepend=0, append=0)
-        for first, end in zip(np.flatnonzero(release > 0), np.flatnonzero(release < 0), strict=True):
-            self.zero(first * BLOCK, end * BLOCK)
+        """Zero the blocks flagged in the (n_blocks,) bool ``blocks`` (the others must be zero
+        already): those also flagged in ``resident`` in place (their pages stay mapped, for writes
+        expected soon), the others handed back to the system — in one call per run of blocks
+        between kept ones, not per run of flagged blocks (the unflagged ones between are zero)."""
+        keep = blocks & resident
+        if not _RELEASES_PAGES:
+            self._blocks[blocks] = 0.0
+            return
+        self._blocks[keep] = 0.0
+        flagged = np.concatenate(([0], np.cumsum(blocks & ~resident)))
+        change = np.diff(keep.view(np.int8), prepend=1, append=1)  # −1: a run starts; +1: ends
+        for first, end in zip(np.flatnonzero(change < 0), np.flatnonzero(change > 0), strict=True):
+            if flagged[end] > flagged[first]:
+                self.zero(first * BLOCK, end * BLOCK)
 
     def zero(self, start: int, stop: int) -> None:
         """Zero ``array[start:stop]``, returning the whole pages inside it to the system."""

@@ -30,20 +30,20 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     from nbv_gym.rl.train import _create, make_vec_env, require_rl, set_torch_threads
 
     require_rl()
-    from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv
+    from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv, TorchThreads
 
     config = replace(TrainConfig(), train_worlds=(WORLD,), eval_worlds=())
-    set_torch_threads(config.torch_threads, config.n_envs)
+    threads = TorchThreads(*set_torch_threads(config.torch_threads, config.n_envs))
     per_update = config.learning.n_steps * config.n_envs
     envs = TimedVecEnv(make_vec_env(config))
     try:
         model = _create(config, envs, verbose=0)
         progress(f"MaskablePPO warm-up on {WORLD}: {config.n_envs} envs × {per_update} steps")
-        model.learn(per_update)
+        model.learn(per_update, callback=threads)
         progress(f"MaskablePPO training on {WORLD}: {UPDATES} updates of {per_update} steps")
         phases, envs.seconds = PhaseTimer(), 0.0
         start, steps = time.perf_counter(), model.num_timesteps
-        model.learn(UPDATES * per_update, reset_num_timesteps=False, callback=phases)
+        model.learn(UPDATES * per_update, reset_num_timesteps=False, callback=[phases, threads])
         elapsed = time.perf_counter() - start
     finally:
         envs.close()

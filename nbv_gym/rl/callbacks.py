@@ -1,5 +1,6 @@
 """Training callbacks of ``nbv-gym train`` (the episode log behind the learning curve, a
-wall-clock limit) and the timers of the RL bench suite (:mod:`nbv_gym.rl.bench`)."""
+wall-clock limit, torch's thread count per phase) and the timers of the RL bench suite
+(:mod:`nbv_gym.rl.bench`)."""
 
 from __future__ import annotations
 
@@ -72,6 +73,29 @@ class TimeLimit(BaseCallback):
 
     def _on_step(self) -> bool:
         return time.perf_counter() - self._start < self.limit_s
+
+
+class TorchThreads(BaseCallback):
+    """Gives torch ``rollout`` intra-op threads while the environment workers step and
+    ``update`` threads while PPO updates (the workers idle meanwhile);
+    :func:`~nbv_gym.rl.train.torch_threads` chooses the counts."""
+
+    def __init__(self, rollout: int, update: int):
+        super().__init__()
+        self.rollout, self.update = rollout, update
+
+    def _on_rollout_start(self) -> None:
+        import torch
+
+        torch.set_num_threads(self.rollout)
+
+    def _on_rollout_end(self) -> None:
+        import torch
+
+        torch.set_num_threads(self.update)
+
+    def _on_step(self) -> bool:
+        return True
 
 
 class TimedVecEnv(VecEnvWrapper):

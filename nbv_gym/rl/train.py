@@ -56,7 +56,7 @@ def train(
     """
     require_rl()
     check_device(config.device)
-    set_torch_threads(config.torch_threads, config.n_envs)
+    threads = set_torch_threads(config.torch_threads, config.n_envs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_run_info(config, out)
@@ -75,7 +75,7 @@ def train(
             warnings.filterwarnings("ignore", "Training and eval env are not of the same type")
             model.learn(
                 remaining,
-                callback=_callbacks(config, out, eval_env, verbose, time_limit_s),
+                callback=_callbacks(config, out, eval_env, verbose, time_limit_s, threads),
                 reset_num_timesteps=resume is None,
                 progress_bar=progress_bar,
             )
@@ -100,18 +100,27 @@ def check_device(device: str) -> None:
         )
 
 
-def set_torch_threads(threads: int, n_envs: int) -> None:
-    """Give torch ``threads`` intra-op threads; 0: one per core that no environment worker
-    runs on (at least one). More threads than free cores make OpenMP wait for descheduled
-    threads: on a busy 2-core machine 2 threads made the policy's forward passes 10 times
-    slower than 1 (``nbv-gym bench --suite rl``)."""
+def torch_threads(threads: int, n_envs: int) -> tuple[int, int]:
+    """Torch intra-op threads (during rollouts, during updates): ``threads`` for both when set.
+    0: during rollouts one per core that no environment worker runs on (at least one) — more
+    threads than free cores make OpenMP wait for descheduled threads: on a busy 2-core machine 2
+    threads made the policy's forward passes 10 times slower than 1 (``nbv-gym bench --suite
+    rl``) — and during updates, while the workers wait, one per core."""
+    affinity = getattr(os, "sched_getaffinity", None)  # Linux only
+    cores = len(affinity(0)) if affinity else os.cpu_count() or 1
+    if threads:
+        return threads, threads
+    return max(1, cores - (n_envs if n_envs > 1 else 0)), cores
+
+
+def set_torch_threads(threads: int, n_envs: int) -> tuple[int, int]:
+    """Give torch the rollout threads of :func:`torch_threads` now; returns both counts (the
+    :class:`~nbv_gym.rl.callbacks.TorchThreads` callback switches between them)."""
     import torch
 
-    if not threads:
-        affinity = getattr(os, "sched_getaffinity", None)  # Linux only
-        cores = len(affinity(0)) if affinity else os.cpu_count() or 1
-        threads = max(1, cores - (n_envs if n_envs > 1 else 0))
-    torch.set_num_threads(threads)
+    counts = torch_threads(threads, n_envs)
+    torch.set_num_threads(counts[0])
+    return counts
 
 
 def make_vec_env(config: TrainConfig, seed_offset: int = 0):
@@ -284,13 +293,18 @@ def _logger(out: Path, verbose: int):
 
 
 def _callbacks(
-    config: TrainConfig, out: Path, eval_env, verbose: int, time_limit_s: float | None = None
+    config: TrainConfig,
+    out: Path,
+    eval_env,
+    verbose: int,
+    time_limit_s: float | None = None,
+    threads: tuple[int, int] = (1, 1),
 ) -> list:
     from stable_baselines3.common.callbacks import CheckpointCallback
 
-    from nbv_gym.rl.callbacks import EpisodeLog, TimeLimit
+    from nbv_gym.rl.callbacks import EpisodeLog, TimeLimit, TorchThreads
 
-    callbacks = [EpisodeLog(out / EPISODES_CSV)]
+    callbacks = [EpisodeLog(out / EPISODES_CSV), TorchThreads(*threads)]
     if time_limit_s is not None:
         callbacks.append(TimeLimit(time_limit_s))
     if config.checkpoint_every_steps:

@@ -29,7 +29,7 @@ from nbv_gym.grid import GridSpec
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
 from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_known
 from nbv_gym.mapping.tally import NO_LOG, CellTally
-from nbv_gym.mapping.traversal import BRICK, axis_offsets, insert_scan, tile_index
+from nbv_gym.mapping.traversal import BRICK, axis_offsets, insert_scan
 
 _FORMAT = "nbv_gym.OccupancyMap/1"
 
@@ -334,7 +334,7 @@ class OccupancyMap:
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
         f = int(round(factor))
         out = np.empty((len(cells), f, f, f), np.float32)
-        _gather_blocks(self._store, self._dims, offset, cells, out)
+        _gather_blocks(self._store, *self._offsets, self._dims, offset, cells, out)
         if as_probability:
             probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
         return out
@@ -567,20 +567,22 @@ def _check_params(params: dict[str, float], path: str | Path) -> None:
 
 
 @njit(cache=True)
-def _gather_blocks(store, dims, offset, cells, out):
+def _gather_blocks(store, x_offset, y_offset, z_offset, dims, offset, cells, out):
     """Fill ``out`` (k, f, f, f) with the log-odds (NaN = unknown, also outside the map) of
-    ``cells`` (coarse indices) from the bricked ``store``."""
-    bricks_x, bricks_y, nx, ny, nz = dims
+    ``cells`` (coarse indices) from the bricked ``store`` (voxel (a, b, k) at ``x_offset[a] +
+    y_offset[b] + z_offset[k]``)."""
+    nx, ny, nz = dims[2], dims[3], dims[4]
     f = out.shape[1]
     out[:] = np.nan
     for c in range(cells.shape[0]):
         x0 = offset[0] + cells[c, 0] * f
         y0 = offset[1] + cells[c, 1] * f
         z0 = offset[2] + cells[c, 2] * f
-        for d in range(max(0, -z0), min(f, nz - z0)):
-            for a in range(max(0, -x0), min(f, nx - x0)):
-                for b in range(max(0, -y0), min(f, ny - y0)):
-                    value = store[tile_index(x0 + a, y0 + b, z0 + d, bricks_x, bricks_y)]
+        for a in range(max(0, -x0), min(f, nx - x0)):
+            for b in range(max(0, -y0), min(f, ny - y0)):
+                column = x_offset[x0 + a] + y_offset[y0 + b]
+                for d in range(max(0, -z0), min(f, nz - z0)):
+                    value = store[column + z_offset[z0 + d]]
                     if is_known(value):
                         out[c, a, b, d] = value if value != KNOWN_ZERO else np.float32(0.0)
 

@@ -9,7 +9,7 @@ The map traversal mirrors OctoMap's ``computeRayKeys`` (Amanatides–Woo 3D DDA)
 is the sensor's, the endpoint's cell is excluded, ties between axes go to the later axis, and the walk
 stops early if it overshoots the ray's length (a numerical safeguard OctoMap has too).
 
-Map storage is *bricked* for locality (see :func:`tile_index`): a flat float32 array of bricks of
+Map storage is *bricked* for locality (see :func:`axis_offsets`): a flat float32 array of bricks of
 16 × 16 × 4 (x, y, z) voxels, each one 4 KiB page (:data:`BLOCK <nbv_gym.mapping.store.BLOCK>`
 values), made of 4 × 4 (x, y) tiles of 16 voxels — one 64-byte cache line. A ray touches a new
 cache line every few cells and a new page every few dozen, and a scan makes resident only the pages
@@ -30,21 +30,12 @@ _BIG = 1e300
 BRICK = (16, 16, 4)
 
 
-@njit(cache=True, inline="always")
-def tile_index(ix, iy, iz, bricks_x, bricks_y) -> int:
-    """Flat index of voxel ``(ix, iy, iz)`` in bricked storage with ``bricks_x × bricks_y``
-    bricks per layer of bricks: bricks in (z, x, y) row-major order; inside a brick, 4 z layers of
-    4 × 4 (x, y) tiles; inside a tile, 4 × 4 (x, y) voxels row-major."""
-    brick = ((iz >> 2) * bricks_x + (ix >> 4)) * bricks_y + (iy >> 4)
-    tile = ((((iz & 3) << 2) | ((ix >> 2) & 3)) << 2) | ((iy >> 2) & 3)
-    return (brick << 10) | (tile << 4) | ((ix & 3) << 2) | (iy & 3)
-
-
 def axis_offsets(bricks: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of :func:`tile_index` along each axis, for a store of ``bricks`` (x, y, z)
-    bricks: three int64 arrays over the voxel indices with
-    ``tile_index(i, j, k) = x[i] + y[j] + z[k]`` (the bit fields do not overlap), so a loop over
-    voxels adds three table entries instead of recomputing the index."""
+    """The map store's layout, for a store of ``bricks`` (x, y, z) bricks: three int64 arrays
+    over the voxel indices such that voxel (i, j, k) is at ``x[i] + y[j] + z[k]`` (the parts are
+    disjoint bit fields). Bricks lie in (z, x, y) row-major order; inside a brick, 4 z layers of
+    4 × 4 (x, y) tiles; inside a tile, 4 × 4 (x, y) voxels row-major. A loop over voxels adds
+    three table entries instead of recomputing the index."""
     bx, by, bz = bricks
     i, j, k = (np.arange(n * b, dtype=np.int64) for n, b in zip(bricks, BRICK, strict=True))
     x = ((i >> 4) * by << 10) + (((i >> 2) & 3) << 6) + ((i & 3) << 2)
@@ -121,7 +112,7 @@ def insert_scan(
     three times slower when the voxel update was such a helper (measured).
 
     Args:
-        store: flat float32 bricked log-odds (:func:`tile_index`) in the store's encoding
+        store: flat float32 bricked log-odds (:func:`axis_offsets`) in the store's encoding
             (:mod:`nbv_gym.mapping.store`: zero bits = unknown); updated in place.
         offsets: the (x, y, z) int64 tables of :func:`axis_offsets`: voxel (i, j, k) is
             ``store[x[i] + y[j] + z[k]]``.

@@ -11,7 +11,7 @@ import numpy as np
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping import OccupancyMap
 from nbv_gym.mapping.store import BLOCK, ZeroPages, decoded, encoded
-from nbv_gym.mapping.traversal import BRICK, axis_offsets, tile_index
+from nbv_gym.mapping.traversal import BRICK, axis_offsets
 
 BOX = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 0.1)
 ORIGIN = np.array([0.05, 0.05, 0.05])  # centre of voxel (20, 20, 10)
@@ -81,9 +81,10 @@ def test_voxel_index_is_a_bijection_whose_bricks_are_store_blocks():
     bx, by, bz = 3, 2, 2  # bricks
     shape = (bx * BRICK[0], by * BRICK[1], bz * BRICK[2])
     i, j, k = (a.ravel() for a in np.indices(shape))
-    index = np.array([tile_index(*v, bx, by) for v in zip(i, j, k, strict=True)])
+    x, y, z = axis_offsets((bx, by, bz))
+    index = x[i] + y[j] + z[k]
     assert np.array_equal(np.sort(index), np.arange(len(index)))
     brick = ((k // BRICK[2]) * bx + i // BRICK[0]) * by + j // BRICK[1]
     assert np.array_equal(index // BLOCK, brick) and math.prod(BRICK) == BLOCK
-    x, y, z = axis_offsets((bx, by, bz))
-    assert np.array_equal(x[i] + y[j] + z[k], index)
+    tile = (k % 4 * 4 + i % 16 // 4) * 4 + j % 16 // 4  # 4 × 4 × 4 tiles of 16 voxels
+    assert np.array_equal(index % BLOCK, tile * 16 + i % 4 * 4 + j % 4)

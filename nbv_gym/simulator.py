@@ -255,8 +255,8 @@ class Simulator:
         cells = self.goal_grid.unravel(touched)
         sums, outside = (totals[tuple(cells.T)] for totals in self.state.cell_totals())
         search = cells[self.quality.needs_coverage(touched, outside)]
-        blocks = self.state.occupancy.probability_blocks(self.goal_grid, search)
-        return self.quality.update_totals(touched, sums, outside, blocks)
+        levels = self.state.occupancy.level_blocks(self.goal_grid, search, self.quality.bounds)
+        return self.quality.update_totals(touched, sums, outside, levels)
 
     def _end(self, discovered: float) -> tuple[bool, bool, str]:
         episode = self.config.episode

@@ -326,18 +326,36 @@ class OccupancyMap:
         ``cells`` of a coarse aligned ``grid``, bit for bit as :meth:`probability` gives them."""
         return self._blocks(grid, cells, as_probability=True)
 
+    def level_blocks(self, grid: GridSpec, cells: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+        """(k, f, f, f) uint32 of the voxels of the (k, 3) ``cells`` of a coarse aligned
+        ``grid``: bit s set iff the voxel's probability (0.5 where unknown or outside the map)
+        exceeds the threshold whose :func:`~nbv_gym.mapping.probability.logodds_bound` is
+        ``bounds[s]`` ((s,) float32, s ≤ 32). The same bits as comparing
+        :meth:`probability_blocks` with the thresholds, without computing a probability."""
+        offset, cells, out = self._block_output(grid, cells, np.uint32)
+        _gather_levels(
+            self._store, *self._offsets, self._dims, offset, cells,
+            np.asarray(bounds, np.float32), out,
+        )  # fmt: skip
+        return out
+
     def _blocks(self, grid: GridSpec, cells: np.ndarray, as_probability: bool) -> np.ndarray:
+        offset, cells, out = self._block_output(grid, cells, np.float32)
+        _gather_blocks(self._store, *self._offsets, self._dims, offset, cells, out)
+        if as_probability:
+            probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
+        return out
+
+    def _block_output(self, grid: GridSpec, cells: np.ndarray, dtype) -> tuple:
+        """The first voxel of ``grid``, its (k, 3) int64 ``cells`` and an empty (k, f, f, f)
+        ``dtype`` array for their voxels; ConfigError unless ``grid`` is aligned to the map."""
         factor = grid.res / self.grid.res
         if not _is_whole(factor):
             raise ConfigError(f"grid cells of {grid.res} m are not a whole number of voxels")
         offset = self._voxel_offset(GridSpec(grid.origin, self.grid.res, grid.shape))
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
         f = int(round(factor))
-        out = np.empty((len(cells), f, f, f), np.float32)
-        _gather_blocks(self._store, *self._offsets, self._dims, offset, cells, out)
-        if as_probability:
-            probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
-        return out
+        return offset, cells, np.empty((len(cells), f, f, f), dtype)
 
     def probability(self, grid: GridSpec) -> np.ndarray:
         """float32 occupancy probability of ``grid.shape``; 0.5 where unknown or outside the map.
@@ -585,6 +603,31 @@ def _gather_blocks(store, x_offset, y_offset, z_offset, dims, offset, cells, out
                     value = store[column + z_offset[z0 + d]]
                     if is_known(value):
                         out[c, a, b, d] = value if value != KNOWN_ZERO else np.float32(0.0)
+
+
+@njit(cache=True)
+def _gather_levels(store, x_offset, y_offset, z_offset, dims, offset, cells, bounds, out):
+    """Fill ``out`` (k, f, f, f) uint32 with the bitmask of the ``bounds`` each voxel's
+    log-odds reaches (unknown and outside the map: log-odds 0) for the coarse ``cells``."""
+    nx, ny, nz = dims[2], dims[3], dims[4]
+    f = out.shape[1]
+    unknown = np.uint32(0)  # the stored value of an unknown voxel is 0 too
+    for s in range(bounds.shape[0]):
+        unknown |= np.uint32(bounds[s] <= 0.0) << np.uint32(s)
+    out[:] = unknown
+    for c in range(cells.shape[0]):
+        x0 = offset[0] + cells[c, 0] * f
+        y0 = offset[1] + cells[c, 1] * f
+        z0 = offset[2] + cells[c, 2] * f
+        for a in range(max(0, -x0), min(f, nx - x0)):
+            for b in range(max(0, -y0), min(f, ny - y0)):
+                column = x_offset[x0 + a] + y_offset[y0 + b]
+                for d in range(max(0, -z0), min(f, nz - z0)):
+                    value = store[column + z_offset[z0 + d]]  # KNOWN_ZERO compares like 0
+                    level = np.uint32(0)
+                    for s in range(bounds.shape[0]):
+                        level |= np.uint32(value >= bounds[s]) << np.uint32(s)
+                    out[c, a, b, d] = level
 
 
 @njit(cache=True)

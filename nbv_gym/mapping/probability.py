@@ -5,7 +5,8 @@ float64 and rounded once (:func:`sigmoid_one`); unknown (NaN) is 0.5. A map hold
 log-odds (sums of the hit and miss steps, clamped), so the compiled hot paths look probabilities up
 in a small direct-mapped cache keyed by the log-odds' bits (:func:`new_cache`,
 :func:`probabilities_in_place`) and call :func:`sigmoid_one` only on a miss: the same bits either
-way.
+way. A comparison ``p > t`` is a comparison of the log-odds with :func:`logodds_bound` ``(t)``,
+also the same bits: no probability needs computing at all.
 """
 
 from __future__ import annotations
@@ -52,6 +53,36 @@ def probabilities_in_place(logodds, count, cache):
             keys[slot] = key
             values[slot] = sigmoid_one(value)
         logodds[i] = values[slot]
+
+
+def logodds_bound(threshold: float) -> np.float32:
+    """The least float32 log-odds ``b`` whose probability exceeds float32 ``threshold``: since
+    :func:`sigmoid_one` never decreases, ``sigmoid_one(l) > t`` iff ``l >= b`` for every float32
+    ``l`` (found by bisection over the float32 values in [−200, 200]; tests check both sides of
+    it). An unknown voxel (p = 0.5) compares as ``l = 0``."""
+    t = np.float32(threshold)
+    low, high = _ordered(-200.0), _ordered(200.0)  # p(−200) = 0 and p(200) = 1 in float32
+    if not sigmoid_one(_from_ordered(high)) > t:
+        return np.float32(np.inf)
+    while high - low > 1:  # invariant: p(low) <= t < p(high)
+        middle = (low + high) // 2
+        if sigmoid_one(_from_ordered(middle)) > t:
+            high = middle
+        else:
+            low = middle
+    return _from_ordered(high)
+
+
+def _ordered(x: float) -> int:
+    """An integer of float32 ``x`` that orders like the float (−0.0 and +0.0 both 0)."""
+    bits = int(np.float32(x).view(np.int32))
+    return bits if bits >= 0 else -(bits & 0x7FFFFFFF)
+
+
+def _from_ordered(key: int) -> np.float32:
+    """The float32 of :func:`_ordered` ``key``."""
+    bits = key if key >= 0 else (-key) | -0x80000000
+    return np.int32(bits).view(np.float32)
 
 
 def probabilities(logodds: np.ndarray) -> np.ndarray:

@@ -38,6 +38,7 @@ from numba import njit, prange
 from nbv_gym.arrays import BoolArray, FloatArray, IntArray
 from nbv_gym.config import check
 from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.probability import logodds_bound
 from nbv_gym.metrics import MetricInputError
 
 #: The four (p, d_m) coverage settings of the papers; the last one is the default of Q.
@@ -379,6 +380,8 @@ class QualityTracker:
         self._occupied = self.u_occ.ravel()
         self._offsets, self._within = _stencil(self.config)
         self._thresholds = np.array([p for p, _ in self.config.cov_settings])
+        #: (s,) float32 log-odds bounds of the settings' thresholds (``p > t`` iff ``l >= b``)
+        self.bounds = np.array([logodds_bound(p) for p in self._thresholds], np.float32)
         size = int(np.prod(self.shape))
         self._observed = np.zeros(size, bool)
         self._l1 = np.full(size, self.config.unobserved_l1)
@@ -411,17 +414,28 @@ class QualityTracker:
         return self.summary()
 
     def update_totals(
-        self, touched: IntArray, sums: FloatArray, outside: IntArray, blocks: FloatArray
+        self, touched: IntArray, sums: FloatArray, outside: IntArray, levels: np.ndarray
     ) -> QualitySummary:
         """Recompute the (m,) flat cuboid indices ``touched`` from running totals of their voxels
         — (m,) float64 ``sums`` Σ p and (m,) int ``outside``, the number of voxels outside the
         unobserved band (:class:`~nbv_gym.mapping.tally.CellTally`) — and the (k, n, n, n)
-        probability ``blocks`` of the touched cuboids that need a coverage search
-        (:meth:`needs_coverage`, in order), and summarise. Same bits as :meth:`update_blocks`."""
+        uint32 ``levels`` of the touched cuboids that need a coverage search
+        (:meth:`needs_coverage`, in order): per voxel the bitmask of the settings whose
+        threshold its p exceeds (:meth:`levels`, or
+        :meth:`OccupancyMap.level_blocks <nbv_gym.mapping.OccupancyMap.level_blocks>` with
+        :attr:`bounds`), and summarise. Same bits as :meth:`update_blocks`."""
         touched = self._checked(touched)
         observed = np.asarray(outside) > 0
-        self._store(touched, observed, np.asarray(sums, np.float64), blocks)
+        self._store(touched, observed, np.asarray(sums, np.float64), levels)
         return self.summary()
+
+    def levels(self, blocks: FloatArray) -> np.ndarray:
+        """(k, n, n, n) uint32 bitmasks of the settings whose threshold each voxel's
+        probability in the (k, n, n, n) ``blocks`` exceeds (compared in the blocks' precision)."""
+        blocks = np.ascontiguousarray(blocks)
+        out = np.empty(blocks.shape, np.uint32)
+        _levels(blocks.reshape(-1), self._thresholds.astype(blocks.dtype), out.reshape(-1))
+        return out
 
     def needs_coverage(self, touched: IntArray, outside: IntArray) -> BoolArray:
         """(m,) bool: which of the flat cuboid indices ``touched``, with ``outside`` voxels
@@ -440,25 +454,24 @@ class QualityTracker:
         same = blocks.dtype.type  # thresholds in the grid's precision: float32 0.4 is "<= 0.4"
         band = (same(self.config.unknown_low), same(self.config.unknown_high))
         observed, sums = _block_totals(blocks, *band)
-        self._store(flat, observed, sums, blocks[self._occupied[flat] & observed])
+        self._store(flat, observed, sums, self.levels(blocks[self._occupied[flat] & observed]))
 
-    def _store(self, flat: IntArray, observed: BoolArray, sums: FloatArray, blocks) -> None:
+    def _store(self, flat: IntArray, observed: BoolArray, sums: FloatArray, levels) -> None:
         """Set the cuboids ``flat``: observed or not, L1 (their ``sums`` if observed), coverage
-        searched in ``blocks``, the probabilities of those observed and holding ground truth."""
+        searched in ``levels`` (:meth:`levels`) of those observed and holding ground truth."""
         need = flat[self._occupied[flat] & observed]
         n = self.config.cuboid_voxels
-        if blocks.shape != (len(need), n, n, n):
+        if levels.shape != (len(need), n, n, n) or levels.dtype != np.uint32:
             raise MetricInputError(
-                f"expected ({len(need)}, {n}, {n}, {n}) probability blocks of the observed "
-                f"cuboids holding ground truth, got {blocks.shape}"
+                f"expected ({len(need)}, {n}, {n}, {n}) uint32 levels of the observed cuboids "
+                f"holding ground truth, got {levels.dtype} {levels.shape}"
             )
         self._observed[flat] = observed
         self._l1[flat] = np.where(observed, sums, self.config.unobserved_l1)
         self._cov[:, flat] = 0.0
-        blocks = np.ascontiguousarray(blocks)
         _coverages(
-            blocks, need, self.config.cuboid_voxels, self.shape, self._gt_start, self._gt_voxels,
-            self._offsets, self._within, self._thresholds.astype(blocks.dtype), self._cov,
+            np.ascontiguousarray(levels), need, self.config.cuboid_voxels, self.shape,
+            self._gt_start, self._gt_voxels, self._offsets, self._within, self._cov,
         )  # fmt: skip
 
     def reset(self) -> None:
@@ -562,14 +575,24 @@ def _block_totals(blocks, low, high):
 
 
 @njit(cache=True, parallel=True)
-def _coverages(blocks, flat, n, shape, gt_start, gt_voxels, offsets, within, thresholds, cov):
+def _coverages(levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov):
     """Set the coverages ``cov[:, f]`` of the flat cuboid indices ``flat`` from their (m, n, n,
-    n) probability ``blocks``, in place (:func:`_coverage`)."""
+    n) uint32 ``levels``, in place (:func:`_coverage`)."""
     for t in prange(flat.shape[0]):
         f = flat[t]
         corner = (f // (shape[1] * shape[2]) * n, (f // shape[2]) % shape[1] * n, f % shape[2] * n)
-        _coverage(blocks[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
-                  thresholds, cov[:, f])  # fmt: skip
+        _coverage(levels[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
+                  cov[:, f])  # fmt: skip
+
+
+@njit(cache=True)
+def _levels(probabilities, thresholds, out):
+    """``out[i]``: the bitmask of the ``thresholds`` that ``probabilities[i]`` exceeds."""
+    for i in range(probabilities.shape[0]):
+        p, level = probabilities[i], np.uint32(0)
+        for s in range(thresholds.shape[0]):
+            level |= np.uint32(p > thresholds[s]) << np.uint32(s)
+        out[i] = level
 
 
 @njit(cache=True, fastmath={"reassoc", "nsz"})
@@ -593,26 +616,18 @@ def _scan_cuboid(prob, i0, j0, k0, n, low, high):
 
 
 @njit(cache=True)
-def _coverage(block, voxels, corner, offsets, within, thresholds, out):
+def _coverage(levels, voxels, corner, offsets, within, out):
     """Fill ``out`` (s,) with the coverage of each setting for the ground-truth ``voxels`` (k, 3)
-    of the cuboid whose low voxel is ``corner``, from its (n, n, n) probability ``block``.
+    of the cuboid whose low voxel is ``corner``, from its (n, n, n) ``levels``: per voxel the
+    bitmask of the settings whose threshold its p exceeds (:func:`_levels`).
 
-    Each voxel of the block first gets the bitmask of the settings whose threshold its p exceeds;
-    a ground-truth voxel is covered by setting s if some voxel of ``offsets`` (sorted by length)
+    A ground-truth voxel is covered by setting s if some voxel of ``offsets`` (sorted by length)
     inside the cuboid has bit s, where ``within`` (o,) is the bitmask of the settings whose
     radius reaches offset o. The search of a voxel stops once every setting has a match.
     """
-    n = block.shape[0]
-    settings = thresholds.shape[0]
+    n = levels.shape[0]
+    settings = out.shape[0]
     every = (1 << settings) - 1
-    levels = np.empty((n, n, n), np.int64)
-    for i in range(n):
-        for j in range(n):
-            for k in range(n):
-                p, level = block[i, j, k], 0
-                for s in range(settings):
-                    level |= (p > thresholds[s]) << s
-                levels[i, j, k] = level
     counts = np.zeros(settings, np.int64)
     for v in range(voxels.shape[0]):
         x, y, z = voxels[v, 0] - corner[0], voxels[v, 1] - corner[1], voxels[v, 2] - corner[2]

@@ -7,14 +7,17 @@ import math
 import pickle
 
 import numpy as np
+import pytest
 
 from nbv_gym.grid import GridSpec
 from nbv_gym.mapping import OccupancyMap
+from nbv_gym.mapping.probability import logodds_bound, probabilities
 from nbv_gym.mapping.store import BLOCK, ZeroPages, decoded, encoded
 from nbv_gym.mapping.traversal import BRICK, axis_offsets
 
 BOX = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 0.1)
 ORIGIN = np.array([0.05, 0.05, 0.05])  # centre of voxel (20, 20, 10)
+L_HIT, L_MISS = np.float32(math.log(0.7 / 0.3)), np.float32(math.log(0.4 / 0.6))
 
 
 def test_a_hit_then_a_miss_of_equal_weight_leaves_a_known_voxel_at_log_odds_zero(tmp_path):
@@ -88,3 +91,38 @@ def test_voxel_index_is_a_bijection_whose_bricks_are_store_blocks():
     assert np.array_equal(index // BLOCK, brick) and math.prod(BRICK) == BLOCK
     tile = (k % 4 * 4 + i % 16 // 4) * 4 + j % 16 // 4  # 4 × 4 × 4 tiles of 16 voxels
     assert np.array_equal(index % BLOCK, tile * 16 + i % 4 * 4 + j % 4)
+
+
+@pytest.mark.parametrize("threshold", [0.0, 0.12, 0.4, 0.5, 0.6, 0.7, 0.97, 0.999])
+def test_a_probability_exceeds_a_threshold_iff_its_log_odds_reach_the_bound(threshold):
+    bound = logodds_bound(threshold)
+    up, down = [bound], [bound]
+    for _ in range(300):  # 300 float32 steps on either side of the bound
+        up.append(np.nextafter(up[-1], np.float32(np.inf)))
+        down.append(np.nextafter(down[-1], np.float32(-np.inf)))
+    near = up + down
+    rng = np.random.default_rng(1)
+    values = np.concatenate([np.array(near, np.float32), rng.uniform(-8, 8, 20_000).astype(np.float32),
+                             np.float32([0.0, -0.0, L_HIT, L_MISS, 2 * L_HIT, L_HIT + L_MISS])])  # fmt: skip
+    exceeds = probabilities(values) > np.float32(threshold)
+    np.testing.assert_array_equal(exceeds, values >= bound)
+
+
+def test_level_blocks_equal_thresholded_probability_blocks():
+    from nbv_gym.metrics.cuboids import QualityTracker
+
+    occupancy = OccupancyMap(
+        BOX, p_hit=0.7, p_miss=0.3, p_clamp_min=0.12, p_clamp_max=0.97, p_occupied=0.5,
+        max_range_m=20.0,
+    )  # fmt: skip
+    rng = np.random.default_rng(3)
+    for _ in range(4):  # hits and misses of equal weight: some voxels at log-odds 0
+        occupancy.insert(ORIGIN, rng.uniform((-2, -2, -1), (6, 2, 1), (300, 3)))
+    coarse = GridSpec.from_bounds((-3.0, -3.0, -2.0), (7.0, 3.0, 2.0), 1.0)  # cells outside too
+    cells = np.argwhere(np.ones(coarse.shape, bool))
+    tracker = QualityTracker(np.zeros((10, 10, 10), bool))
+    assert (occupancy.logodds_blocks(coarse, cells) == 0).any()
+    np.testing.assert_array_equal(
+        occupancy.level_blocks(coarse, cells, tracker.bounds),
+        tracker.levels(occupancy.probability_blocks(coarse, cells)),
+    )

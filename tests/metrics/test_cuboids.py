@@ -215,7 +215,9 @@ def test_update_totals_gives_the_bits_of_update_blocks():
     outside = ((blocks <= np.float32(0.4)) | (blocks >= np.float32(0.6))).sum(axis=(1, 2, 3))
     search = tracker.needs_coverage(touched, outside)
     assert search.tolist() == [True, False, True, False]
-    summary = tracker.update_totals(touched, sums, outside, blocks[search])
+    summary = tracker.update_totals(touched, sums, outside, tracker.levels(blocks[search]))
     np.testing.assert_equal(astuple(summary), astuple(expected))
     with pytest.raises(MetricInputError, match="observed cuboids holding ground truth"):
-        tracker.update_totals(touched, sums, outside, blocks)
+        tracker.update_totals(touched, sums, outside, tracker.levels(blocks))
+    with pytest.raises(MetricInputError, match="uint32 levels"):
+        tracker.update_totals(touched, sums, outside, blocks[search])  # probabilities

@@ -26,6 +26,7 @@ from nbv_gym.arrays import BoolArray, FloatArray
 from nbv_gym.config import check
 from nbv_gym.errors import ConfigError, DataFileError, NbvGymError, PoseError
 from nbv_gym.grid import GridSpec
+from nbv_gym.mapping.columns import NO_COLUMNS, ColumnCounts
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
 from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_known
 from nbv_gym.mapping.tally import NO_LOG, CellTally
@@ -182,6 +183,7 @@ class OccupancyMap:
         points: FloatArray,
         region: GridSpec | None = None,
         tally: CellTally | None = None,
+        columns: ColumnCounts | None = None,
     ) -> ScanUpdate:
         """Insert one scan.
 
@@ -193,6 +195,8 @@ class OccupancyMap:
                 voxels (e.g. the statistics grid G); the result's ``touched`` mask is over it.
             tally: per-cell totals over ``region`` to keep up to date (built for this map when it
                 was empty, cleared with it).
+            columns: per-column counts to keep up to date (:meth:`column_counts`, built when the
+                map was empty, cleared with it).
 
         Raises:
             PoseError: the sensor lies outside the map box or is not finite.
@@ -221,6 +225,7 @@ class OccupancyMap:
             cells,
             log,
             self._dirty,
+            (columns or NO_COLUMNS).kernel_args(),
         )
         if not self._scans:
             self._first_scan[:] = self._dirty
@@ -418,6 +423,28 @@ class OccupancyMap:
             np.array(self._band_layers(occupied_band_m), np.int64),
             _positive_bound(self._lo_occupied), np.asarray(cells, np.int64).reshape(-1, 2), known,
             occupied,
+        )  # fmt: skip
+
+    def column_counts(
+        self,
+        grid: GridSpec,
+        known_band_m: tuple[float, float],
+        occupied_band_m: tuple[float, float],
+    ) -> ColumnCounts:
+        """Counts of the known voxels in ``known_band_m`` and the occupied ones in
+        ``occupied_band_m`` of each x, y cell's columns of ``grid`` (aligned to the map, inside it)
+        — :meth:`project` as counts, to be kept up to date by :meth:`insert`. All zero: build
+        them for an empty map."""
+        (x0, y0), f = self._column_block(grid)
+        cell = [np.full(n, -1, np.int64) for n in self.grid.shape[:2]]
+        for axis, first in enumerate((x0, y0)):
+            n = grid.shape[axis]
+            cell[axis][first : first + f * n] = np.arange(f * n) // f
+        shape = grid.shape[:2]
+        return ColumnCounts(
+            *cell, np.array([*self._band_layers(known_band_m), *self._band_layers(occupied_band_m)]),
+            _positive_bound(self._lo_occupied), np.zeros(shape, np.int32),
+            np.zeros(shape, np.int32), np.zeros(shape, bool),
         )  # fmt: skip
 
     def _brick_view(self) -> np.ndarray:

@@ -3,7 +3,6 @@ together by one call per scan (work proportional to what the scan changed)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -11,7 +10,6 @@ import numpy as np
 from nbv_gym.arrays import FloatArray
 from nbv_gym.config import check
 from nbv_gym.errors import NbvGymError
-from nbv_gym.grid import GridSpec
 from nbv_gym.lidar import Scan
 from nbv_gym.mapping.navigation import NavigationConfig, NavigationLayer
 from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
@@ -53,10 +51,12 @@ class MappingConfig:
 class ExplorationState:
     """The state every policy reads: ``occupancy``, ``statistics`` and ``navigation``.
 
-    Insertion flags the cells of G, extended downwards to cover the navigation bands, that hold
-    a changed voxel: G's part says which cuboids to re-evaluate, the band's part which navigation
-    columns to re-project. Given an ``unobserved_band`` (low, high) of probabilities, the state
-    also keeps per-cell totals of the map over G (:meth:`cell_totals`) for the quality metrics.
+    Insertion flags the cells of G that hold a changed voxel (which cuboids to re-evaluate) and
+    keeps per-column counts of the known and occupied voxels of the navigation bands
+    (:class:`~nbv_gym.mapping.columns.ColumnCounts`): the navigation cells whose counts changed
+    are re-projected from them, without reading the map. Given an ``unobserved_band`` (low,
+    high) of probabilities, the state also keeps per-cell totals of the map over G
+    (:meth:`cell_totals`) for the quality metrics.
     """
 
     def __init__(
@@ -69,15 +69,14 @@ class ExplorationState:
         self.occupancy = occupancy
         self.statistics = statistics
         self.navigation = navigation
-        self._region, self._below, self._band = _insertion_region(
-            statistics.grid, navigation, occupancy.grid.res
+        self._columns = occupancy.column_counts(
+            navigation.grid, navigation.known_band_m, navigation.occupied_band_m
         )
-        self._nav_factor = round(statistics.grid.res / navigation.grid.res)
         self._tally = None
         if unobserved_band is not None:
             voxels = round(statistics.grid.res / occupancy.grid.res)
             p_min = occupancy.params["p_clamp_min"]
-            self._tally = CellTally(self._region.shape, voxels, unobserved_band, p_min)
+            self._tally = CellTally(statistics.grid.shape, voxels, unobserved_band, p_min)
 
     @classmethod
     def from_config(
@@ -93,20 +92,26 @@ class ExplorationState:
 
     def apply(self, scan: Scan, robot_xy: FloatArray | None = None) -> ScanUpdate:
         """Insert ``scan`` (its map-frame points, seen from ``scan.origin``) into the map and the
-        statistics, then update the navigation layer — re-projecting only the columns the scan
-        changed — and plan once for the robot at ``robot_xy`` (2,) metres (default: the scan's
-        sensor position).
+        statistics, then update the navigation layer — re-projecting the cells whose column
+        counts the scan changed — and plan once for the robot at ``robot_xy`` (2,) metres
+        (default: the scan's sensor position).
 
         Raises:
             PoseError: the sensor lies outside the map box.
         """
-        inserted = self.occupancy.insert(scan.origin, scan.points_map, self._region, self._tally)
+        inserted = self.occupancy.insert(
+            scan.origin, scan.points_map, self.statistics.grid, self._tally, self._columns
+        )
         self.statistics.update(scan.origin, scan.points_map)
-        columns = self._nav_columns(inserted.touched[:, :, self._band].any(axis=2))
-        self._project(np.argwhere(columns))
-        self.navigation.plan(scan.origin[:2] if robot_xy is None else robot_xy)
-        touched = np.ascontiguousarray(inserted.touched[:, :, self._below :])
-        return replace(inserted, touched=touched, columns=columns)
+        columns = np.zeros(self.navigation.grid.shape[:2], bool)
+        i, j = self._columns.take_changed().T
+        columns[i, j] = True
+        nav = self.navigation
+        nav.known[i, j] = self._columns.known[i, j] > 0
+        nav.occupied[i, j] = self._columns.occupied[i, j] > 0
+        nav.reproject()
+        nav.plan(scan.origin[:2] if robot_xy is None else robot_xy)
+        return replace(inserted, columns=columns)
 
     def update_navigation(self, robot_xy: FloatArray) -> None:
         """Re-project the whole map onto the navigation grid and re-plan from ``robot_xy`` (2,)
@@ -119,22 +124,17 @@ class ExplorationState:
         and int32 the number of them outside the unobserved band; NbvGymError without a band."""
         if self._tally is None:
             raise NbvGymError("this state keeps no cell totals: build it with unobserved_band")
-        below = self._below
-        return self._tally.sums[:, :, below:], self._tally.outside[:, :, below:]
+        return self._tally.sums, self._tally.outside
 
     def clear(self) -> None:
         """Forget everything (an empty state, as :meth:`from_config` builds), reusing the
         arrays."""
         if self._tally is not None:
             self._tally.clear()
+        self._columns.clear()
         self.occupancy.clear()
         self.statistics.clear()
         self.navigation.clear()
-
-    def _nav_columns(self, columns: np.ndarray) -> np.ndarray:
-        """(nx, ny) bool nav cells of the (gx, gy) bool columns of G."""
-        f = self._nav_factor
-        return np.repeat(np.repeat(columns, f, axis=0), f, axis=1)
 
     def _project(self, cells: np.ndarray | None) -> None:
         """Re-project the (m, 2) nav ``cells`` (all when None) and recompute the layers derived
@@ -144,19 +144,3 @@ class ExplorationState:
             nav.grid, nav.known_band_m, nav.occupied_band_m, nav.known, nav.occupied, cells
         )
         nav.reproject()
-
-
-def _insertion_region(
-    grid: GridSpec, navigation: NavigationLayer, voxel_m: float
-) -> tuple[GridSpec, int, slice]:
-    """G extended downwards by whole cells until it covers the navigation bands, the number of
-    cells added below, and the slice of its z layers holding the bands' voxels."""
-    bands = (*navigation.known_band_m, *navigation.occupied_band_m)
-    low, high = min(bands) - voxel_m, max(bands) + voxel_m  # voxels whose centre is in a band
-    below = max(0, math.ceil((grid.low[2] - low) / grid.res - 1e-9))
-    origin = (grid.origin[0], grid.origin[1], grid.origin[2] - below * grid.res)
-    nz = grid.shape[2] + below
-    region = GridSpec(origin, grid.res, (grid.shape[0], grid.shape[1], nz))
-    k0 = max(0, math.floor((low - origin[2]) / grid.res))
-    k1 = min(nz, math.ceil((high - origin[2]) / grid.res))
-    return region, below, slice(k0, max(k0, k1))

@@ -98,7 +98,7 @@ def _window_tuple(window):
 @njit(cache=True)
 def insert_scan(
     store, offsets, origin, points, max_range, deltas, bounds, marks, window, touched, cells, log,
-    dirty,
+    dirty, columns,
 ):
     """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
 
@@ -133,12 +133,17 @@ def insert_scan(
             unknown) and ``new`` log-odds.
         dirty: (bricks,) bool: set for each brick (block of the store) written; the voxels of a
             brick not set are all unknown (0).
+        columns: :meth:`ColumnCounts.kernel_args <nbv_gym.mapping.columns.ColumnCounts>`: the
+            per-column counts of known and occupied voxels in the navigation bands to keep up
+            to date (empty ``x_cell``: none).
 
     Returns:
         Number of voxels that received a hit, number of changes inside the coarse grid (more
         than the log's capacity when they did not all fit).
     """
     x_offset, y_offset, z_offset = offsets
+    col_x, col_y, layers, occupied_bound, known_count, occupied_count, col_changed = columns
+    counting = col_x.shape[0] > 0
     w = _window_tuple(window)
     lo_min, lo_max = bounds[0], bounds[1]
     log_cell, log_old, log_new = log
@@ -189,6 +194,17 @@ def insert_scan(
                 if not (known and new == old):
                     store[i] = stored(new)
                     dirty[i >> 10] = True
+                    if counting and col_x[cx] >= 0 and col_y[cy] >= 0:
+                        ni, nj = col_x[cx], col_y[cy]
+                        if not known and layers[0] <= cz < layers[1]:
+                            known_count[ni, nj] += 1
+                            col_changed[ni, nj] = True
+                        if layers[2] <= cz < layers[3]:
+                            was = known and old >= occupied_bound
+                            now = stored(new) >= occupied_bound
+                            if was != now:
+                                occupied_count[ni, nj] += 1 if now else -1
+                                col_changed[ni, nj] = True
                     ca, cb, cc = cells[0, cx], cells[1, cy], cells[2, cz]
                     if ca >= 0 and cb >= 0 and cc >= 0:
                         cell = ca + cb + cc

@@ -126,3 +126,31 @@ def test_level_blocks_equal_thresholded_probability_blocks():
         occupancy.level_blocks(coarse, cells, tracker.bounds),
         tracker.levels(occupancy.probability_blocks(coarse, cells)),
     )
+
+
+def test_column_counts_kept_by_insertion_equal_a_count_of_the_map():
+    occupancy = OccupancyMap(
+        BOX, p_hit=0.7, p_miss=0.3, p_clamp_min=0.12, p_clamp_max=0.97, p_occupied=0.5,
+        max_range_m=20.0,
+    )  # fmt: skip
+    nav = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 0.5)
+    known_band, occupied_band = (-0.3, 0.5), (0.0, 0.5)
+    counts = occupancy.column_counts(nav, known_band, occupied_band)
+    rng = np.random.default_rng(5)
+    for origin in ([0.05, 0.05, 0.05], [2.05, -1.05, 0.35], [0.05, 0.05, 0.05]):
+        # hits, then misses through them: occupied voxels turn free and back
+        occupancy.insert(np.array(origin), rng.uniform((-2, -2, -1), (6, 2, 1), (400, 3)),
+                         columns=counts)  # fmt: skip
+        lo = occupancy.logodds
+        z = BOX.low[2] + (np.arange(lo.shape[2]) + 0.5) * BOX.res
+        known_layers = (z >= known_band[0]) & (z <= known_band[1])
+        occupied_layers = (z >= occupied_band[0]) & (z <= occupied_band[1])
+        per_cell = lambda mask: mask.reshape(16, 5, 8, 5, -1).sum(axis=(1, 3, 4))  # noqa: E731
+        known = ~np.isnan(lo) & known_layers
+        occupied = (lo >= 0) & occupied_layers  # NaN compares False
+        np.testing.assert_array_equal(counts.known, per_cell(known))
+        np.testing.assert_array_equal(counts.occupied, per_cell(occupied))
+        projected = occupancy.project(nav, known_band, occupied_band)
+        np.testing.assert_array_equal(counts.known > 0, projected[0])
+        np.testing.assert_array_equal(counts.occupied > 0, projected[1])
+    assert counts.occupied.sum() > 0 and counts.take_changed().size and not counts.changed.any()

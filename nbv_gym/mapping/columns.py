@@ -1,0 +1,62 @@
+"""Per-column counts of the voxels the navigation layer projects, kept up to date by the map's
+insertion, so that a scan's projection needs no re-scan of the columns it changed.
+
+For each cell of a 2D grid aligned to the map (the navigation grid), the number of known voxels
+whose centre lies in the known band and the number of occupied voxels in the occupied band of
+its columns; the cell is known / occupied iff its count is positive (as
+:meth:`OccupancyMap.project <nbv_gym.mapping.OccupancyMap.project>` decides by scanning).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class ColumnCounts:
+    """Counts over an (nx, ny) grid; built by
+    :meth:`OccupancyMap.column_counts <nbv_gym.mapping.OccupancyMap.column_counts>`.
+
+    Attributes:
+        x_cell, y_cell: the grid cell of each map voxel index along x and y (−1 outside).
+        layers: (4,) int64 [k0, k1) z layers of the known band, then of the occupied band.
+        bound: a stored value at or above it is occupied (with the map's occupied threshold).
+        known, occupied: (nx, ny) int32 counts.
+        changed: (nx, ny) bool cells whose counts changed since :meth:`take_changed`.
+    """
+
+    x_cell: np.ndarray
+    y_cell: np.ndarray
+    layers: np.ndarray
+    bound: np.float32
+    known: np.ndarray
+    occupied: np.ndarray
+    changed: np.ndarray
+
+    def kernel_args(self) -> tuple:
+        """The arrays the insertion kernel updates, in its order."""
+        return (
+            self.x_cell, self.y_cell, self.layers, self.bound, self.known, self.occupied,
+            self.changed,
+        )  # fmt: skip
+
+    def take_changed(self) -> np.ndarray:
+        """(m, 2) int64 the cells whose counts changed since the last call, and forget them."""
+        cells = np.argwhere(self.changed)
+        self.changed[:] = False
+        return cells
+
+    def clear(self) -> None:
+        """Every count 0 (an empty map)."""
+        self.known[:] = 0
+        self.occupied[:] = 0
+        self.changed[:] = False
+
+
+#: The counts of a map insertion that keeps none.
+NO_COLUMNS = ColumnCounts(
+    *(np.full(0, -1, np.int64) for _ in range(2)), np.zeros(4, np.int64), np.float32(0),
+    *(np.zeros((0, 0), np.int32) for _ in range(2)), np.zeros((0, 0), bool),
+)  # fmt: skip

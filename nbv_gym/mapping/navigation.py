@@ -154,7 +154,7 @@ class NavigationLayer:
 
     def reproject(self) -> None:
         """Recompute eroded free space and frontiers from :attr:`known` and :attr:`occupied`
-        (after they were changed in place, e.g. by :meth:`OccupancyMap.project_into`)."""
+        (after they were changed in place, e.g. from the map's column counts)."""
         free = self.free
         self.eroded_free = erode(free, self._robot_widths)
         unknown_near = dilate(~self.known, self._unknown_widths)

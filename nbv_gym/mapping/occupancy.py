@@ -85,8 +85,8 @@ class ScanUpdate:
         touched: bool mask over the ``region`` grid passed to ``insert`` (G in the exploration
             state): cells holding a voxel whose value changed (empty (0, 0, 0) without a region).
         columns: (nx, ny) bool over the navigation grid (set by the exploration state): cells
-            that may hold a changed voxel of the navigation bands, to re-project (empty (0, 0)
-            from a bare map insert).
+            whose counts of known or occupied voxels in the navigation bands changed, hence
+            re-projected (empty (0, 0) from a bare map insert).
     """
 
     n_points: int
@@ -399,31 +399,14 @@ class OccupancyMap:
         """
         known = np.zeros(grid.shape[:2], bool)
         occupied = np.zeros(grid.shape[:2], bool)
-        self.project_into(grid, known_band_m, occupied_band_m, known, occupied)
-        return known, occupied
-
-    def project_into(
-        self,
-        grid: GridSpec,
-        known_band_m: tuple[float, float],
-        occupied_band_m: tuple[float, float],
-        known: np.ndarray,
-        occupied: np.ndarray,
-        cells: np.ndarray | None = None,
-    ) -> None:
-        """:meth:`project` written in place into the (nx, ny) bool ``known`` and ``occupied``,
-        for the (m, 2) x, y ``cells`` of ``grid`` only (all when None): after a scan, the
-        columns it changed (:attr:`ScanUpdate.columns`)."""
         (x0, y0), factor = self._column_block(grid)
-        if cells is None:
-            cells = np.argwhere(np.ones(grid.shape[:2], bool))
         _project_columns(
             self._store, *self._offsets, x0, y0, factor,
             np.array(self._band_layers(known_band_m), np.int64),
             np.array(self._band_layers(occupied_band_m), np.int64),
-            _positive_bound(self._lo_occupied), np.asarray(cells, np.int64).reshape(-1, 2), known,
-            occupied,
+            _positive_bound(self._lo_occupied), np.argwhere(~known), known, occupied,
         )  # fmt: skip
+        return known, occupied
 
     def column_counts(
         self,

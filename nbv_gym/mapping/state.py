@@ -116,8 +116,9 @@ class ExplorationState:
     def update_navigation(self, robot_xy: FloatArray) -> None:
         """Re-project the whole map onto the navigation grid and re-plan from ``robot_xy`` (2,)
         metres."""
-        self._project(None)
-        self.navigation.plan(robot_xy)
+        nav = self.navigation
+        nav.project(*self.occupancy.project(nav.grid, nav.known_band_m, nav.occupied_band_m))
+        nav.plan(robot_xy)
 
     def cell_totals(self) -> tuple[np.ndarray, np.ndarray]:
         """Views of G's shape (gx, gy, gz): float64 Σ p of each cell's map voxels (unknown = 0.5)
@@ -135,12 +136,3 @@ class ExplorationState:
         self.occupancy.clear()
         self.statistics.clear()
         self.navigation.clear()
-
-    def _project(self, cells: np.ndarray | None) -> None:
-        """Re-project the (m, 2) nav ``cells`` (all when None) and recompute the layers derived
-        from the projection."""
-        nav = self.navigation
-        self.occupancy.project_into(
-            nav.grid, nav.known_band_m, nav.occupied_band_m, nav.known, nav.occupied, cells
-        )
-        nav.reproject()

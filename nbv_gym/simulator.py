@@ -139,7 +139,8 @@ class Simulator:
         self.quality = self._quality_tracker(self.world)
         self.goal_centres = self.goal_grid.xy_centres()
         band = (self.config.quality.unknown_low, self.config.quality.unknown_high)
-        self._state = ExplorationState.from_config(self.config.mapping, band)  # for every episode
+        thresholds = tuple(p for p, _ in self.config.quality.cov_settings)
+        self._state = ExplorationState.from_config(self.config.mapping, band, thresholds)
         self.state: ExplorationState | None = None  # the episode's state; None before a reset
         self.rng = np.random.default_rng()
         self.pose = self._start_pose()
@@ -251,12 +252,14 @@ class Simulator:
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
         """Recompute the metrics of the touched cuboids only: from the map's running totals,
-        and the voxels of those whose coverage must be searched."""
-        cells = self.goal_grid.unravel(touched)
-        sums, outside = (totals[tuple(cells.T)] for totals in self.state.cell_totals())
-        search = cells[self.quality.needs_coverage(touched, outside)]
-        levels = self.state.occupancy.level_blocks(self.goal_grid, search, self.quality.bounds)
-        return self.quality.update_totals(touched, sums, outside, levels)
+        and the voxels of those whose coverage must be searched again (a voxel crossed a
+        coverage threshold)."""
+        sums, outside = (totals.reshape(-1)[touched] for totals in self.state.cell_totals())
+        search = self.quality.needs_coverage(self.state.take_crossed())
+        levels = self.state.occupancy.level_blocks(
+            self.goal_grid, self.goal_grid.unravel(search), self.quality.bounds
+        )
+        return self.quality.update_totals(touched, sums, outside, search, levels)
 
     def _end(self, discovered: float) -> tuple[bool, bool, str]:
         episode = self.config.episode

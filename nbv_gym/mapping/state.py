@@ -56,7 +56,8 @@ class ExplorationState:
     (:class:`~nbv_gym.mapping.columns.ColumnCounts`): the navigation cells whose counts changed
     are re-projected from them, without reading the map. Given an ``unobserved_band`` (low,
     high) of probabilities, the state also keeps per-cell totals of the map over G
-    (:meth:`cell_totals`) for the quality metrics.
+    (:meth:`cell_totals`) for the quality metrics, and flags the cells where a voxel's
+    probability crossed one of the ``coverage_thresholds`` (:meth:`take_crossed`).
     """
 
     def __init__(
@@ -65,6 +66,7 @@ class ExplorationState:
         statistics: ViewpointStatistics,
         navigation: NavigationLayer,
         unobserved_band: tuple[float, float] | None = None,
+        coverage_thresholds: tuple[float, ...] = (),
     ):
         self.occupancy = occupancy
         self.statistics = statistics
@@ -76,17 +78,23 @@ class ExplorationState:
         if unobserved_band is not None:
             voxels = round(statistics.grid.res / occupancy.grid.res)
             p_min = occupancy.params["p_clamp_min"]
-            self._tally = CellTally(statistics.grid.shape, voxels, unobserved_band, p_min)
+            self._tally = CellTally(
+                statistics.grid.shape, voxels, unobserved_band, p_min, coverage_thresholds
+            )
 
     @classmethod
     def from_config(
-        cls, config: MappingConfig, unobserved_band: tuple[float, float] | None = None
+        cls,
+        config: MappingConfig,
+        unobserved_band: tuple[float, float] | None = None,
+        coverage_thresholds: tuple[float, ...] = (),
     ) -> ExplorationState:
-        """An empty state as ``config`` describes (with cell totals for ``unobserved_band``)."""
+        """An empty state as ``config`` describes (with cell totals for ``unobserved_band`` and
+        ``coverage_thresholds``)."""
         occupancy = OccupancyMap.from_config(config.map, config.sensor_range_m)
         statistics = ViewpointStatistics.from_config(config.statistics, config.sensor_range_m)
         navigation = NavigationLayer.from_config(config.navigation, statistics.grid)
-        state = cls(occupancy, statistics, navigation, unobserved_band)
+        state = cls(occupancy, statistics, navigation, unobserved_band, coverage_thresholds)
         state.update_navigation(np.zeros(2))  # also checks that the grids fit together
         return state
 
@@ -123,9 +131,17 @@ class ExplorationState:
     def cell_totals(self) -> tuple[np.ndarray, np.ndarray]:
         """Views of G's shape (gx, gy, gz): float64 Σ p of each cell's map voxels (unknown = 0.5)
         and int32 the number of them outside the unobserved band; NbvGymError without a band."""
+        return self._totals().sums, self._totals().outside
+
+    def take_crossed(self) -> np.ndarray:
+        """(k,) int64 flat indices of the cells of G holding a voxel whose probability crossed a
+        coverage threshold since the last call (or the last :meth:`clear`), forgetting them."""
+        return self._totals().take_crossed()
+
+    def _totals(self) -> CellTally:
         if self._tally is None:
             raise NbvGymError("this state keeps no cell totals: build it with unobserved_band")
-        return self._tally.sums, self._tally.outside
+        return self._tally
 
     def clear(self) -> None:
         """Forget everything (an empty state, as :meth:`from_config` builds), reusing the

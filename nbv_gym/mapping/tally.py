@@ -1,5 +1,7 @@
 """Running totals of the occupancy map per cell of a coarse grid (G): what the quality metrics need
-of every cuboid a scan touched — Σ p and whether it is observed — without re-reading its voxels.
+of every cuboid a scan touched — Σ p, whether it is observed, and whether a voxel's probability
+crossed a coverage threshold (else its coverage cannot have changed) — without re-reading its
+voxels.
 
 :meth:`OccupancyMap.insert <nbv_gym.mapping.OccupancyMap.insert>` logs every voxel whose value
 changes while it inserts a scan, then the tally applies the log (:meth:`CellTally.apply`); a scan
@@ -26,18 +28,23 @@ LOG_CAPACITY = 1 << 19
 
 
 class CellTally:
-    """Per-cell Σ p (unknown voxels count 0.5) and the number of voxels whose p lies outside the
-    open ``band`` (low, high), over a coarse grid aligned to the map.
+    """Per-cell Σ p (unknown voxels count 0.5), the number of voxels whose p lies outside the
+    open ``band`` (low, high), and flags of the cells where a voxel's p crossed one of the
+    ``thresholds``, over a coarse grid aligned to the map.
 
     Args:
         shape: (a, b, c) cells of the coarse grid.
         voxels_per_cell: map voxels per cell side (G: 10).
         band: the open probability band (low, high) of "unobserved"; compared in float32.
         p_min: the map's lower clamp (the least probability of a known voxel).
+        thresholds: probabilities t whose crossings are flagged: a voxel crosses t when ``p > t``
+            changes (compared in float32, unknown = 0.5): the coverage thresholds.
 
     Attributes:
         sums: (a, b, c) float64 Σ p of each cell's voxels.
         outside: (a, b, c) int32 count of each cell's voxels with p ≤ low or p ≥ high.
+        crossed: (a, b, c) bool cells holding a voxel that crossed a threshold since
+            :meth:`take_crossed`.
         band: (2,) float32 (low, high).
     """
 
@@ -47,6 +54,7 @@ class CellTally:
         voxels_per_cell: int,
         band: tuple[float, float],
         p_min: float,
+        thresholds: tuple[float, ...] = (),
     ):
         spacing = math.floor(math.log2(np.float32(p_min))) - 23  # float32 spacing at p_min: 2^this
         bits = math.log2(voxels_per_cell**3) - spacing
@@ -57,9 +65,11 @@ class CellTally:
             f"inexact in float64 ({bits:.0f} bits > 53); use p_clamp_min ≥ 1e-6",
         )
         self.band = np.array(band, np.float32)
+        self.thresholds = np.unique(np.array(thresholds, np.float32))
         self.unknown_sum = 0.5 * voxels_per_cell**3
         self.sums = np.empty(shape, np.float64)
         self.outside = np.empty(shape, np.int32)
+        self.crossed = np.empty(shape, bool)
         self.log = new_log(LOG_CAPACITY)
         self.clear()
 
@@ -67,6 +77,14 @@ class CellTally:
         """Every voxel unknown again."""
         self.sums.fill(self.unknown_sum)
         self.outside.fill(0)
+        self.crossed.fill(False)
+
+    def take_crossed(self) -> np.ndarray:
+        """(k,) int64 flat (C-order) indices of the cells flagged in :attr:`crossed`, and clear
+        the flags."""
+        flat = np.flatnonzero(self.crossed)
+        self.crossed.reshape(-1)[flat] = False
+        return flat
 
     def apply(self, count: int, cache: tuple[np.ndarray, np.ndarray]) -> bool:
         """Add the ``count`` logged changes of a scan to the totals (probabilities through the
@@ -80,13 +98,16 @@ class CellTally:
         cell, old, new = self.log
         probabilities_in_place(old, count, cache)
         probabilities_in_place(new, count, cache)
-        _apply(cell, old, new, count, self.band, self.sums.reshape(-1), self.outside.reshape(-1))
+        _apply(cell, old, new, count, self.band, self.thresholds, self.sums.reshape(-1),
+               self.outside.reshape(-1), self.crossed.reshape(-1))  # fmt: skip
         return True
 
     def recount(self, cells: np.ndarray, blocks: np.ndarray) -> None:
         """Set the totals of the (k, 3) ``cells`` from their (k, f, f, f) float32 probability
-        ``blocks`` (:meth:`OccupancyMap.probability_blocks`)."""
+        ``blocks`` (:meth:`OccupancyMap.probability_blocks`), and flag them all as crossed (what
+        changed inside them is not known)."""
         index = tuple(np.asarray(cells).T)
+        self.crossed[index] = True
         self.sums[index] = blocks.sum(axis=(1, 2, 3), dtype=np.float64)
         outside = (blocks <= self.band[0]) | (blocks >= self.band[1])
         self.outside[index] = outside.sum(axis=(1, 2, 3))
@@ -100,14 +121,18 @@ def new_log(capacity: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 @njit(cache=True)
-def _apply(cell, old, new, count, band, sums, outside):
+def _apply(cell, old, new, count, band, thresholds, sums, outside, crossed):
     """Add the ``count`` logged changes — flat ``cell``, probabilities ``old`` and ``new`` — to
-    ``sums`` and ``outside`` (flat per-cell arrays); ``band`` (low, high)."""
+    ``sums`` and ``outside`` and flag in ``crossed`` the cells where one crossed a threshold
+    (flat per-cell arrays); ``band`` (low, high)."""
     low, high = band[0], band[1]
     for e in range(count):
-        c = cell[e]
-        sums[c] += np.float64(new[e]) - np.float64(old[e])
-        outside[c] += (new[e] <= low or new[e] >= high) - (old[e] <= low or old[e] >= high)
+        c, before, after = cell[e], old[e], new[e]
+        sums[c] += np.float64(after) - np.float64(before)
+        outside[c] += (after <= low or after >= high) - (before <= low or before >= high)
+        for t in thresholds:
+            if (before > t) != (after > t):
+                crossed[c] = True
 
 
 #: The log of a map that keeps no tally: every change overflows it, nothing is written.

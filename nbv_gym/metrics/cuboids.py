@@ -348,6 +348,11 @@ class QualityTracker:
     :class:`QualitySummary`. Each cuboid's values come from the same kernel whether it is
     recomputed alone or in a full pass, and the means are taken over the whole per-cuboid arrays,
     so an incremental result equals a full recomputation exactly.
+
+    A cuboid's coverage search is a function of its voxels' *levels* alone (which thresholds
+    each p exceeds); the tracker keeps its result for every cuboid holding ground truth, observed
+    or not, and searches again only where levels changed (:meth:`update_totals`: a scan changes
+    the levels of a few dozen cuboids while it touches hundreds).
     """
 
     def __init__(self, gt: BoolArray, config: CuboidConfig | None = None):
@@ -386,6 +391,11 @@ class QualityTracker:
         self._observed = np.zeros(size, bool)
         self._l1 = np.full(size, self.config.unobserved_l1)
         self._cov = np.zeros((len(self.config.cov_settings), size))
+        #: (s, size) the coverage search's result for the current levels (cuboids holding ground
+        #: truth): all voxels unknown at first, which every ground-truth voxel finds in itself
+        self._found = np.empty_like(self._cov)
+        self._unknown_found = (0.5 > self._thresholds.astype(np.float32)).astype(float)
+        self._found[:] = self._unknown_found[:, None]
 
     def update(self, prob: FloatArray, touched: IntArray | None = None) -> QualitySummary:
         """Recompute the cuboids in ``touched`` (all when None) from ``prob`` and summarise.
@@ -414,19 +424,25 @@ class QualityTracker:
         return self.summary()
 
     def update_totals(
-        self, touched: IntArray, sums: FloatArray, outside: IntArray, levels: np.ndarray
+        self,
+        touched: IntArray,
+        sums: FloatArray,
+        outside: IntArray,
+        searched: IntArray,
+        levels: np.ndarray,
     ) -> QualitySummary:
         """Recompute the (m,) flat cuboid indices ``touched`` from running totals of their voxels
         — (m,) float64 ``sums`` Σ p and (m,) int ``outside``, the number of voxels outside the
-        unobserved band (:class:`~nbv_gym.mapping.tally.CellTally`) — and the (k, n, n, n)
-        uint32 ``levels`` of the touched cuboids that need a coverage search
-        (:meth:`needs_coverage`, in order): per voxel the bitmask of the settings whose
-        threshold its p exceeds (:meth:`levels`, or
-        :meth:`OccupancyMap.level_blocks <nbv_gym.mapping.OccupancyMap.level_blocks>` with
-        :attr:`bounds`), and summarise. Same bits as :meth:`update_blocks`."""
-        touched = self._checked(touched)
-        observed = np.asarray(outside) > 0
-        self._store(touched, observed, np.asarray(sums, np.float64), levels)
+        unobserved band (:class:`~nbv_gym.mapping.tally.CellTally`) — and summarise. The
+        coverage search runs on the (k,) flat cuboids ``searched`` alone, from their (k, n, n,
+        n) uint32 ``levels``: per voxel the bitmask of the settings whose threshold its p
+        exceeds (:meth:`levels`, or :meth:`OccupancyMap.level_blocks
+        <nbv_gym.mapping.OccupancyMap.level_blocks>` with :attr:`bounds`). ``searched`` must
+        hold every cuboid with ground truth (:meth:`needs_coverage`) whose levels changed since
+        its last search (the tally's crossed cells); the others keep their result. Same bits as
+        :meth:`update_blocks`."""
+        self._search(self._checked(searched), levels)
+        self._store(self._checked(touched), np.asarray(outside) > 0, np.asarray(sums, np.float64))
         return self.summary()
 
     def levels(self, blocks: FloatArray) -> np.ndarray:
@@ -437,11 +453,11 @@ class QualityTracker:
         _levels(blocks.reshape(-1), self._thresholds.astype(blocks.dtype), out.reshape(-1))
         return out
 
-    def needs_coverage(self, touched: IntArray, outside: IntArray) -> BoolArray:
-        """(m,) bool: which of the flat cuboid indices ``touched``, with ``outside`` voxels
-        outside the unobserved band, hold ground truth and are observed (their coverage is
-        searched in their voxels)."""
-        return self._occupied[touched] & (np.asarray(outside) > 0)
+    def needs_coverage(self, cuboids: IntArray) -> IntArray:
+        """The flat cuboid indices among ``cuboids`` that hold ground truth: those whose
+        coverage is searched when their levels change."""
+        cuboids = np.asarray(cuboids, np.int64)
+        return cuboids[self._occupied[cuboids]]
 
     def _checked(self, touched: IntArray) -> IntArray:
         touched = np.asarray(touched, dtype=np.int64)
@@ -454,25 +470,31 @@ class QualityTracker:
         same = blocks.dtype.type  # thresholds in the grid's precision: float32 0.4 is "<= 0.4"
         band = (same(self.config.unknown_low), same(self.config.unknown_high))
         observed, sums = _block_totals(blocks, *band)
-        self._store(flat, observed, sums, self.levels(blocks[self._occupied[flat] & observed]))
+        holding = self._occupied[flat]
+        self._search(flat[holding], self.levels(blocks[holding]))
+        self._store(flat, observed, sums)
 
-    def _store(self, flat: IntArray, observed: BoolArray, sums: FloatArray, levels) -> None:
-        """Set the cuboids ``flat``: observed or not, L1 (their ``sums`` if observed), coverage
-        searched in ``levels`` (:meth:`levels`) of those observed and holding ground truth."""
-        need = flat[self._occupied[flat] & observed]
+    def _search(self, flat: IntArray, levels: np.ndarray) -> None:
+        """Search the coverage of the cuboids ``flat`` in their (k, n, n, n) uint32 ``levels``
+        (:meth:`levels`)."""
         n = self.config.cuboid_voxels
-        if levels.shape != (len(need), n, n, n) or levels.dtype != np.uint32:
+        if levels.shape != (len(flat), n, n, n) or levels.dtype != np.uint32:
             raise MetricInputError(
-                f"expected ({len(need)}, {n}, {n}, {n}) uint32 levels of the observed cuboids "
-                f"holding ground truth, got {levels.dtype} {levels.shape}"
+                f"expected ({len(flat)}, {n}, {n}, {n}) uint32 levels of the searched cuboids, "
+                f"got {levels.dtype} {levels.shape}"
             )
+        self._found[:, flat] = 0.0
+        _coverages(
+            np.ascontiguousarray(levels), flat, n, self.shape, self._gt_start, self._gt_voxels,
+            self._offsets, self._within, self._found,
+        )  # fmt: skip
+
+    def _store(self, flat: IntArray, observed: BoolArray, sums: FloatArray) -> None:
+        """Set the cuboids ``flat``: observed or not, L1 (their ``sums`` if observed), coverage
+        (the search's result where observed and holding ground truth, else 0)."""
         self._observed[flat] = observed
         self._l1[flat] = np.where(observed, sums, self.config.unobserved_l1)
-        self._cov[:, flat] = 0.0
-        _coverages(
-            np.ascontiguousarray(levels), need, self.config.cuboid_voxels, self.shape,
-            self._gt_start, self._gt_voxels, self._offsets, self._within, self._cov,
-        )  # fmt: skip
+        self._cov[:, flat] = np.where(observed & self._occupied[flat], self._found[:, flat], 0.0)
 
     def reset(self) -> None:
         """Every cuboid unobserved again (a new episode on the same ground truth): clears the
@@ -480,6 +502,7 @@ class QualityTracker:
         self._observed[:] = False
         self._l1[:] = self.config.unobserved_l1
         self._cov[:] = 0.0
+        self._found[:] = self._unknown_found[:, None]
 
     def summary(self) -> QualitySummary:
         """The current :class:`QualitySummary` (no recomputation, no copies of the arrays)."""

@@ -39,19 +39,40 @@ def random_scans(seed: int, n_scans: int = 6):
         yield origin, points
 
 
+def levels(occupancy: OccupancyMap) -> np.ndarray:
+    """(cells, 125) per voxel of each region cell: which of THRESHOLDS its p exceeds."""
+    cells = np.argwhere(np.ones(REGION.shape, bool))
+    blocks = occupancy.probability_blocks(REGION, cells).reshape(len(cells), -1, 1)
+    return blocks > np.float32(THRESHOLDS)
+
+
+THRESHOLDS = (0.8, 0.7, 0.8, 0.3)
+
+
 @pytest.mark.parametrize("capacity", [None, 7])
 def test_totals_equal_a_fresh_count_bit_for_bit(capacity):
     occupancy = new_map()
-    tally = CellTally(REGION.shape, 5, BAND, p_min=0.12)
+    tally = CellTally(REGION.shape, 5, BAND, p_min=0.12, thresholds=THRESHOLDS)
     if capacity is not None:  # a log that overflows: the scan is recounted from the map
         tally.log = tuple(a[:capacity] for a in tally.log)
+    crossings = 0
     for origin, points in random_scans(seed=1):
+        before = levels(occupancy)
         update = occupancy.insert(origin, points, REGION, tally)
         sums, outside = fresh_totals(occupancy)
         np.testing.assert_array_equal(tally.sums, sums)
         np.testing.assert_array_equal(tally.outside, outside)
         assert update.touched.any()
-    assert (tally.outside > 0).any() and (tally.sums != 0.5 * 125).any()
+        crossed = (levels(occupancy) != before).any(axis=(1, 2))
+        flagged = np.zeros_like(crossed)
+        flagged[tally.take_crossed()] = True
+        if capacity is None:  # exactly the cells where a voxel crossed a threshold
+            np.testing.assert_array_equal(flagged, crossed)
+        else:  # a recounted scan flags every touched cell: a superset
+            assert not (crossed & ~flagged).any() and not (flagged & ~update.touched.ravel()).any()
+        crossings += crossed.sum()
+        assert not tally.crossed.any()
+    assert (tally.outside > 0).any() and (tally.sums != 0.5 * 125).any() and crossings > 0
 
 
 def test_clear_makes_every_voxel_unknown_again():

@@ -199,25 +199,31 @@ def test_update_blocks_equals_update_on_the_whole_grid():
 
 def test_update_totals_gives_the_bits_of_update_blocks():
     """The simulator's path — Σp and out-of-band counts kept by the map, blocks only for the
-    coverage search — against the blocks path, on map-like probabilities (≥ the 0.12 clamp)."""
+    coverage search of the cuboids whose levels changed — against the blocks path, on map-like
+    probabilities (≥ the 0.12 clamp), scan after scan."""
     rng = np.random.default_rng(8)
     gt = np.zeros((20, 20, 10), bool)
     gt[:, :10] = rng.random((20, 10, 10)) < 0.05  # cuboids 0 and 2 hold ground truth
-    known = rng.random(gt.shape) < 0.4
-    prob = np.where(known, 0.12 + 0.85 * rng.random(gt.shape), 0.5).astype(np.float32)
-    prob[10:, 10:] = 0.5  # cuboid 3 unobserved
-    blocks = np.stack([prob[i * 10 : i * 10 + 10, j * 10 : j * 10 + 10] for i in (0, 1)
-                       for j in (0, 1)])  # fmt: skip
-    touched = np.arange(4)
-    expected = QualityTracker(gt).update_blocks(touched, blocks)
-    tracker = QualityTracker(gt)
-    sums = blocks.astype(np.float64).sum(axis=(1, 2, 3))
-    outside = ((blocks <= np.float32(0.4)) | (blocks >= np.float32(0.6))).sum(axis=(1, 2, 3))
-    search = tracker.needs_coverage(touched, outside)
-    assert search.tolist() == [True, False, True, False]
-    summary = tracker.update_totals(touched, sums, outside, tracker.levels(blocks[search]))
-    np.testing.assert_equal(astuple(summary), astuple(expected))
-    with pytest.raises(MetricInputError, match="observed cuboids holding ground truth"):
-        tracker.update_totals(touched, sums, outside, tracker.levels(blocks))
+    prob = np.full(gt.shape, 0.5, np.float32)
+    expected, tracker = QualityTracker(gt), QualityTracker(gt)
+    for scan in range(4):
+        known = rng.random(gt.shape) < 0.15
+        prob[known] = (0.12 + 0.85 * rng.random(gt.shape))[known]
+        blocks = np.stack([prob[i * 10 : i * 10 + 10, j * 10 : j * 10 + 10] for i in (0, 1)
+                           for j in (0, 1)])  # fmt: skip
+        blocks[3] = 0.5  # cuboid 3 stays unobserved
+        touched = np.arange(4)
+        sums = blocks.astype(np.float64).sum(axis=(1, 2, 3))
+        outside = ((blocks <= np.float32(0.4)) | (blocks >= np.float32(0.6))).sum(axis=(1, 2, 3))
+        search = tracker.needs_coverage(touched)
+        assert search.tolist() == [0, 2]
+        summary = tracker.update_totals(touched, sums, outside, search,
+                                        tracker.levels(blocks[search]))  # fmt: skip
+        np.testing.assert_equal(astuple(summary), astuple(expected.update_blocks(touched, blocks)))
+    # a cuboid whose levels did not change keeps its coverage without a search
+    kept = tracker.update_totals(touched, sums, outside, search[:1], tracker.levels(blocks[:1]))
+    np.testing.assert_equal(astuple(kept), astuple(summary))
+    with pytest.raises(MetricInputError, match="levels of the searched cuboids"):
+        tracker.update_totals(touched, sums, outside, search, tracker.levels(blocks))
     with pytest.raises(MetricInputError, match="uint32 levels"):
-        tracker.update_totals(touched, sums, outside, blocks[search])  # probabilities
+        tracker.update_totals(touched, sums, outside, search, blocks[search])  # probabilities

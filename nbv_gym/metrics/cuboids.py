@@ -30,6 +30,7 @@ cuboid instead. Summaries carry the same figures over the observed cuboids of th
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -213,6 +214,10 @@ class CuboidMetrics:
 def _summary(u_occ, volume, observed, cov, l1, quality, config: CuboidConfig) -> QualitySummary:
     """The :class:`QualitySummary` of per-cuboid arrays of one shape (``cov`` with a leading
     setting axis; its values off U_occ are never read)."""
+    u_occ, volume, observed, l1, quality = (
+        a.reshape(-1) for a in (u_occ, volume, observed, l1, quality)
+    )
+    cov = cov.reshape(len(cov), -1)
     every = _means(volume, u_occ, cov, l1, quality, config)
     seen = _means(volume & observed, u_occ, cov, l1, quality, config)
     return QualitySummary(
@@ -228,13 +233,15 @@ def _summary(u_occ, volume, observed, cov, l1, quality, config: CuboidConfig) ->
 
 
 def _means(where, u_occ, cov, l1, quality, config) -> tuple[float, float, tuple[float, ...], float]:
-    """(Q, Q_paper, cov per setting, L1) over the cuboids ``where``; NaN where a set is empty."""
-    occ, empty = where & u_occ, where & ~u_occ
-    q = float(quality[where].mean()) if where.any() else float("nan")
-    paper = q_paper(cov[config.q_setting][occ], l1[empty], config)
-    covs = tuple(float(c[occ].mean()) if occ.any() else float("nan") for c in cov)
-    l1_mean = float(l1[empty].mean()) if empty.any() else float("nan")
-    return q, paper, covs, l1_mean
+    """(Q, Q_paper, cov per setting, L1) over the cuboids ``where`` of flat per-cuboid arrays
+    (``cov`` (s, cuboids)); NaN where a set is empty."""
+    nan = float("nan")
+    q = float(quality[where].mean()) if where.any() else nan
+    covs = cov.take(np.flatnonzero(where & u_occ), axis=1)  # (s, k)
+    l1s = l1[where & ~u_occ]
+    paper = q_paper(covs[config.q_setting], l1s, config)
+    cov_means = tuple(covs.mean(axis=1).tolist()) if covs.size else (nan,) * len(cov)  # row by row
+    return q, paper, cov_means, float(l1s.mean()) if l1s.size else nan
 
 
 def cuboid_shape(grid_shape: tuple[int, ...], cuboid_voxels: int) -> tuple[int, int, int]:
@@ -316,8 +323,9 @@ def q_paper(cov: FloatArray, l1: FloatArray, config: CuboidConfig) -> float:
     cov, l1 = np.asarray(cov, float), np.asarray(l1, float)
     if cov.size + l1.size == 0:
         return float("nan")
+    fixed_l1 = lambda: 1 - empty_quality(l1, config)  # noqa: E731
     return float(
-        (_min_max(cov, cov).sum() + (1 - _min_max(l1, _fixed_l1(l1, config))).sum())
+        (_min_max(cov, lambda: cov).sum() + (1 - _min_max(l1, fixed_l1)).sum())
         / (cov.size + l1.size)
     )
 
@@ -328,16 +336,13 @@ def empty_quality(l1: FloatArray, config: CuboidConfig) -> FloatArray:
     return np.clip((config.unobserved_l1 - np.asarray(l1, float)) / span, 0.0, 1.0)
 
 
-def _fixed_l1(l1: FloatArray, config: CuboidConfig) -> FloatArray:
-    """Normalised L1 (0 = best) with fixed bounds: the fallback of eq. (3) for a constant set."""
-    return 1 - empty_quality(l1, config)
-
-
-def _min_max(values: FloatArray, fallback: FloatArray) -> FloatArray:
+def _min_max(values: FloatArray, fixed: Callable[[], FloatArray]) -> FloatArray:
+    """``values`` min–max normalised; for a constant set, ``fixed()``: the normalisation with
+    fixed bounds (the fallback of eq. (3))."""
     if values.size == 0:
         return values
     low, high = values.min(), values.max()
-    return fallback if high == low else (values - low) / (high - low)
+    return fixed() if high == low else (values - low) / (high - low)
 
 
 class QualityTracker:

@@ -206,7 +206,7 @@ def test_update_totals_gives_the_bits_of_update_blocks():
     gt[:, :10] = rng.random((20, 10, 10)) < 0.05  # cuboids 0 and 2 hold ground truth
     prob = np.full(gt.shape, 0.5, np.float32)
     expected, tracker = QualityTracker(gt), QualityTracker(gt)
-    for scan in range(4):
+    for _ in range(4):
         known = rng.random(gt.shape) < 0.15
         prob[known] = (0.12 + 0.85 * rng.random(gt.shape))[known]
         blocks = np.stack([prob[i * 10 : i * 10 + 10, j * 10 : j * 10 + 10] for i in (0, 1)

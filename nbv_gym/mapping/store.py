@@ -90,9 +90,15 @@ class ZeroPages:
         self._blocks[keep] = 0.0
         flagged = np.concatenate(([0], np.cumsum(blocks & ~resident)))
         change = np.diff(keep.view(np.int8), prepend=1, append=1)  # −1: a run starts; +1: ends
-        for first, end in zip(np.flatnonzero(change < 0), np.flatnonzero(change > 0), strict=True):
-            if flagged[end] > flagged[first]:
-                self.zero(first * BLOCK, end * BLOCK)
+        first, end = np.flatnonzero(change < 0), np.flatnonzero(change > 0)
+        released = flagged[end] > flagged[first]
+        if mmap.PAGESIZE != 4 * BLOCK:  # blocks are not pages: zero() rounds to whole pages
+            for a, b in zip(first[released], end[released], strict=True):
+                self.zero(int(a) * BLOCK, int(b) * BLOCK)
+            return
+        for offset, length in zip(first[released] * 4 * BLOCK, (end - first)[released] * 4 * BLOCK,
+                                  strict=True):  # fmt: skip
+            self._buffer.madvise(mmap.MADV_DONTNEED, int(offset), int(length))
 
     def zero(self, start: int, stop: int) -> None:
         """Zero ``array[start:stop]``, returning the whole pages inside it to the system."""

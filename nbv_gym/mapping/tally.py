@@ -125,14 +125,15 @@ def _apply(cell, old, new, count, band, thresholds, sums, outside, crossed):
     """Add the ``count`` logged changes — flat ``cell``, probabilities ``old`` and ``new`` — to
     ``sums`` and ``outside`` and flag in ``crossed`` the cells where one crossed a threshold
     (flat per-cell arrays); ``band`` (low, high)."""
-    low, high = band[0], band[1]
+    low, high, lowest = band[0], band[1], thresholds[0] if thresholds.size else np.inf
     for e in range(count):
         c, before, after = cell[e], old[e], new[e]
         sums[c] += np.float64(after) - np.float64(before)
         outside[c] += (after <= low or after >= high) - (before <= low or before >= high)
-        for t in thresholds:
-            if (before > t) != (after > t):
-                crossed[c] = True
+        if max(before, after) > lowest:  # else below every (ascending) threshold: no crossing
+            for t in thresholds:
+                if (before > t) != (after > t):
+                    crossed[c] = True
 
 
 #: The log of a map that keeps no tally: every change overflows it, nothing is written.

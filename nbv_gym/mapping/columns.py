@@ -36,10 +36,16 @@ class ColumnCounts:
     changed: np.ndarray
 
     def kernel_args(self) -> tuple:
-        """The arrays the insertion kernel updates, in its order."""
+        """What the insertion kernel reads and updates, in its order: per voxel index along x
+        and y its part of the flat cell index (x part + y part < 0 outside the grid), the
+        layers, the bound and flat views of the counts and flags."""
+        outside = -(1 << 40)
+        ny = self.known.shape[1]
+        x_part = np.where(self.x_cell >= 0, self.x_cell * ny, outside)
+        y_part = np.where(self.y_cell >= 0, self.y_cell, outside)
         return (
-            self.x_cell, self.y_cell, self.layers, self.bound, self.known, self.occupied,
-            self.changed,
+            x_part, y_part, self.layers, self.bound, self.known.reshape(-1),
+            self.occupied.reshape(-1), self.changed.reshape(-1),
         )  # fmt: skip
 
     def take_changed(self) -> np.ndarray:

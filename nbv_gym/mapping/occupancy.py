@@ -30,7 +30,7 @@ from nbv_gym.mapping.columns import NO_COLUMNS, ColumnCounts
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
 from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_known
 from nbv_gym.mapping.tally import NO_LOG, CellTally
-from nbv_gym.mapping.traversal import BRICK, axis_offsets, insert_scan
+from nbv_gym.mapping.traversal import BRICK, axis_offsets, insert_scan, window_tables
 
 _FORMAT = "nbv_gym.OccupancyMap/1"
 
@@ -208,7 +208,7 @@ class OccupancyMap:
         touched, cells = self._touch_grid(region)
         if tally is not None and tally.sums.shape != touched.shape:
             raise NbvGymError(f"a tally of {tally.sums.shape} cells needs a region of that shape")
-        window = self._window(origin_grid)
+        window = window_tables(self._window(origin_grid), self.grid.shape)
         self._marks[:] = 0
         log = NO_LOG if tally is None else tally.log
         n_occupied, n_changes = insert_scan(

@@ -73,26 +73,27 @@ def _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz):
     return cx, cy, cz + sz, tx, ty, tz + ddz
 
 
-@njit(cache=True, inline="always")
-def _window_bit(ix, iy, iz, w) -> int:
-    """Index of a voxel's bit in the per-scan marking window, or -1 outside the window or the map.
-
-    ``w`` = (low x, y, z, limit x, y, z, bricks along y, bricks along z): the window is stored in
-    bricks of 8 × 8 × 8 bits, one 64-byte cache line each; the limit is
-    ``min(window shape, map shape − low)``.
-    """
-    a, b, c = ix - w[0], iy - w[1], iz - w[2]
-    if a < 0 or b < 0 or c < 0 or a >= w[3] or b >= w[4] or c >= w[5]:
-        return -1
-    brick = ((a >> 3) * w[6] + (b >> 3)) * w[7] + (c >> 3)
-    return (brick << 9) | ((a & 7) << 6) | ((b & 7) << 3) | (c & 7)
+#: A marking-window table entry outside the window: any sum of three entries with it is < 0.
+OUTSIDE = -(1 << 40)
 
 
-@njit(cache=True, inline="always")
-def _window_tuple(window):
-    """The marking window's (3, 3) array as the scalars :func:`_window_bit` reads."""
-    return (window[0, 0], window[0, 1], window[0, 2], window[1, 0], window[1, 1], window[1, 2],
-            window[2, 1] >> 3, window[2, 2] >> 3)  # fmt: skip
+def window_tables(window: np.ndarray, map_shape: tuple[int, int, int]) -> tuple[np.ndarray, ...]:
+    """The per-scan marking window as three int64 tables over the voxel indices −1 … n along
+    x, y and z (entry ``i + 1`` for index ``i``): voxel (i, j, k) has bit
+    ``x[i + 1] + y[j + 1] + z[k + 1]`` of the window's bitset, a negative sum outside the window
+    or the map. ``window`` = (3, 3) int64 rows: low voxel, limit (``min(window shape, map shape −
+    low)``) and shape (multiples of 8). The bitset is stored in bricks of 8 × 8 × 8 bits, one
+    64-byte cache line each."""
+    low, limit, shape = window
+    bricks = shape >> 3
+    strides = (bricks[1] * bricks[2], bricks[2], 1)
+    tables = []
+    for axis in range(3):
+        table = np.full(map_shape[axis] + 2, OUTSIDE, np.int64)
+        a = np.arange(limit[axis])
+        table[low[axis] + 1 + a] = ((a >> 3) * strides[axis] << 9) | ((a & 7) << (6 - 3 * axis))
+        tables.append(table)
+    return tuple(tables)
 
 
 @njit(cache=True)
@@ -121,8 +122,8 @@ def insert_scan(
         max_range: sensor range in grid units.
         deltas: (2,) float32 log-odds of a hit and of a miss; bounds: (2,) float32 clamping bounds.
         marks: uint8 bitset over the window, all zero on entry (left set on return).
-        window: (3, 3) int64 rows: low voxel, limit (``min(shape, map shape − low)``) and shape
-            (multiples of 8) of the marking window, which must hold every voxel within range.
+        window: the marking window's :func:`window_tables`; the window must hold every voxel
+            within range.
         touched: flat bool over the coarse grid's cells; a cell is set when a voxel inside it
             changes value.
         cells: (3, max(nx, ny, nz)) int64 per voxel index along x, y, z (row 0, 1, 2) the
@@ -142,9 +143,10 @@ def insert_scan(
         than the log's capacity when they did not all fit).
     """
     x_offset, y_offset, z_offset = offsets
+    x_mark, y_mark, z_mark = window
+    n_x, n_y, n_z = x_mark.shape[0] - 2, y_mark.shape[0] - 2, z_mark.shape[0] - 2
     col_x, col_y, layers, occupied_bound, known_count, occupied_count, col_changed = columns
     counting = col_x.shape[0] > 0
-    w = _window_tuple(window)
     lo_min, lo_max = bounds[0], bounds[1]
     log_cell, log_old, log_new = log
     n_points = len(points)
@@ -160,6 +162,8 @@ def insert_scan(
             if not near[r]:
                 continue
             cx, cy, cz = int(math.floor(p[0])), int(math.floor(p[1])), int(math.floor(p[2]))
+            if not (0 <= cx < n_x and 0 <= cy < n_y and 0 <= cz < n_z):
+                continue  # outside the map (the tables cover one voxel beyond it)
             delta = deltas[0]
         else:
             scale = 1.0 if near[r] else max_range / _distance(p, origin)
@@ -178,8 +182,8 @@ def insert_scan(
             sz, tz, ddz = _axis_setup(origin[2], dz / length, cz)
             delta = deltas[1]
         while True:
-            bit = _window_bit(cx, cy, cz, w)
-            if bit < 0:
+            bit = x_mark[cx + 1] + y_mark[cy + 1] + z_mark[cz + 1]
+            if bit < 0:  # outside the window or the map
                 break
             byte, mask = bit >> 3, np.uint8(1 << (bit & 7))
             if not marks[byte] & mask:  # the voxel's first update in this scan
@@ -194,17 +198,17 @@ def insert_scan(
                 if not (known and new == old):
                     store[i] = stored(new)
                     dirty[i >> 10] = True
-                    if counting and col_x[cx] >= 0 and col_y[cy] >= 0:
-                        ni, nj = col_x[cx], col_y[cy]
+                    column = col_x[cx] + col_y[cy] if counting else -1
+                    if column >= 0:
                         if not known and layers[0] <= cz < layers[1]:
-                            known_count[ni, nj] += 1
-                            col_changed[ni, nj] = True
+                            known_count[column] += 1
+                            col_changed[column] = True
                         if layers[2] <= cz < layers[3]:
                             was = known and old >= occupied_bound
                             now = stored(new) >= occupied_bound
                             if was != now:
-                                occupied_count[ni, nj] += 1 if now else -1
-                                col_changed[ni, nj] = True
+                                occupied_count[column] += 1 if now else -1
+                                col_changed[column] = True
                     ca, cb, cc = cells[0, cx], cells[1, cy], cells[2, cz]
                     if ca >= 0 and cb >= 0 and cc >= 0:
                         cell = ca + cb + cc

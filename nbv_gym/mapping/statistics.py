@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from nbv_gym.arrayfiles import array_of, read_saved
 from nbv_gym.arrays import FloatArray
@@ -149,19 +150,19 @@ class ViewpointStatistics:
             np.asarray(self.range_window_m),
             self.n_sectors,
         )
-        self._project(np.flatnonzero((self._stamp == self._scan_id).any(axis=2)))
+        self._project(every=False)
         self._scan_id += 1
         return int(keep.sum())
 
-    def _project(self, columns: np.ndarray) -> None:
-        """Recompute the 2D projections (:meth:`column`) of the (m,) flat x, y ``columns``."""
-        i, j = np.unravel_index(columns, self.grid.shape[:2])
-        n_obs = self._n_obs[i, j]
-        projections = self._columns
-        projections["n_obs"][i, j] = n_obs.sum(axis=1)
-        projections["r_min"][i, j] = self._r_min[i, j].min(axis=1)
-        projections["n_omega"][i, j] = popcount(self._sectors[i, j]).max(axis=1)
-        projections["sigma_theta"][i, j] = spherical_variance(self._sum_u[i, j], n_obs).max(axis=1)
+    def _project(self, every: bool) -> None:
+        """Recompute the 2D projections (:meth:`column`) of every x, y column, or of those
+        holding a cell the current scan observed."""
+        columns = self._columns
+        _project_columns(
+            self._stamp, -2 if every else self._scan_id, self._n_obs, self._r_min,
+            self._sectors, self._sum_u, columns["n_obs"], columns["r_min"], columns["n_omega"],
+            columns["sigma_theta"],
+        )  # fmt: skip
 
     # ------------------------------------------------------------------ read-out (G's shape)
 
@@ -247,7 +248,7 @@ class ViewpointStatistics:
         targets = (stats._n_obs, stats._r_min, stats._sectors, stats._sum_u)
         for target, array in zip(targets, arrays, strict=True):
             target[...] = array
-        stats._project(np.arange(grid.shape[0] * grid.shape[1]))
+        stats._project(every=True)
         return stats
 
 
@@ -261,6 +262,38 @@ def popcount(mask: np.ndarray) -> np.ndarray:
     """int32 number of set bits of each uint32 in ``mask``."""
     bits = np.unpackbits(np.ascontiguousarray(mask, dtype="<u4").view(np.uint8), axis=-1)
     return bits.reshape(*mask.shape, 32).sum(axis=-1, dtype=np.int32)
+
+
+@njit(cache=True)
+def _project_columns(stamp, scan_id, n_obs, r_min, sectors, sum_u, n_obs_2d, r_min_2d, n_omega_2d,
+                     sigma_theta_2d):  # fmt: skip
+    """Recompute the 2D projections over z (:meth:`ViewpointStatistics.column`) of the x, y
+    columns holding a cell that scan ``scan_id`` stamped (all columns for −2): the same values
+    as :func:`popcount` and :func:`spherical_variance` give (|Σu| summed x² + y² + z² in that
+    order, as numpy)."""
+    for i in range(stamp.shape[0]):
+        for j in range(stamp.shape[1]):
+            scanned = scan_id == -2
+            for k in range(stamp.shape[2]):
+                scanned |= stamp[i, j, k] == scan_id
+            if not scanned:
+                continue
+            total, lowest, sectors_max, variance_max = 0, np.inf, 0, 0.0
+            for k in range(stamp.shape[2]):
+                n = n_obs[i, j, k]
+                total += n
+                lowest = min(lowest, r_min[i, j, k])
+                bits, count = sectors[i, j, k], 0
+                while bits:
+                    bits &= bits - np.uint32(1)
+                    count += 1
+                sectors_max = max(sectors_max, count)
+                if n > 0:
+                    x, y, z = sum_u[i, j, k, 0], sum_u[i, j, k, 1], sum_u[i, j, k, 2]
+                    variance = 1.0 - math.sqrt(x * x + y * y + z * z) / n
+                    variance_max = max(variance_max, min(max(variance, 0.0), 1.0))
+            n_obs_2d[i, j], r_min_2d[i, j] = total, lowest
+            n_omega_2d[i, j], sigma_theta_2d[i, j] = sectors_max, variance_max
 
 
 def spherical_variance(sum_u: np.ndarray, n_obs: np.ndarray) -> np.ndarray:

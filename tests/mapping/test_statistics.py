@@ -110,3 +110,6 @@ def test_popcount_and_save_load(tmp_path):
         np.testing.assert_array_equal(getattr(loaded, name), getattr(stats, name))
     np.testing.assert_array_equal(loaded.r_min, stats.r_min)
     assert loaded.range_window_m == stats.range_window_m
+    for name in ("n_obs", "r_min", "n_omega", "sigma_theta"):  # projections rebuilt on load
+        np.testing.assert_array_equal(loaded.column(name), stats.column(name))
+    assert loaded.column("n_obs").sum() > 0

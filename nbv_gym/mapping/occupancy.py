@@ -230,7 +230,8 @@ class OccupancyMap:
         if not self._scans:
             self._first_scan[:] = self._dirty
         self._scans += 1
-        if tally is not None and not tally.apply(n_changes, self._sigmoid_cache):
+        first_miss = min(max(self._deltas[1], self._bounds[0]), self._bounds[1])  # from unknown
+        if tally is not None and not tally.apply(n_changes, self._sigmoid_cache, first_miss):
             cells = np.argwhere(touched)
             tally.recount(cells, self.probability_blocks(region, cells))
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from nbv_gym.config import check
-from nbv_gym.mapping.probability import probabilities_in_place
+from nbv_gym.mapping.probability import probabilities_in_place, sigmoid_one
 
 #: Changes the log holds at first (12 bytes each: 6 MiB); a benchmark scan changes ~250 k voxels.
 LOG_CAPACITY = 1 << 19
@@ -70,7 +70,7 @@ class CellTally:
         self.sums = np.empty(shape, np.float64)
         self.outside = np.empty(shape, np.int32)
         self.crossed = np.empty(shape, bool)
-        self.log = new_log(LOG_CAPACITY)
+        self.log = new_log(LOG_CAPACITY, math.prod(shape))
         self.clear()
 
     def clear(self) -> None:
@@ -86,20 +86,23 @@ class CellTally:
         self.crossed.reshape(-1)[flat] = False
         return flat
 
-    def apply(self, count: int, cache: tuple[np.ndarray, np.ndarray]) -> bool:
-        """Add the ``count`` logged changes of a scan to the totals (probabilities through the
-        ``cache`` of :mod:`~nbv_gym.mapping.probability`). False if the log overflowed:
-        then nothing was added, the log is large enough for the next scan, and the caller
-        recounts the touched cells (:meth:`recount`)."""
-        capacity = len(self.log[0])
-        if count > capacity:
-            self.log = new_log(max(2 * capacity, count))
+    def apply(self, count: int, cache: tuple[np.ndarray, np.ndarray], first_miss: np.float32) -> bool:
+        """Add the ``count`` logged changes of a scan and its counted first misses (voxels
+        going from unknown to the float32 log-odds ``first_miss``) to the totals (probabilities
+        through the ``cache`` of :mod:`~nbv_gym.mapping.probability`). False if the log
+        overflowed: then nothing was added, the log is large enough for the next scan, and the
+        caller recounts the touched cells (:meth:`recount`)."""
+        cell, old, new, first_misses = self.log
+        if count > len(cell):
+            first_misses.fill(0)
+            self.log = new_log(max(2 * len(cell), count), len(first_misses))
             return False
-        cell, old, new = self.log
         probabilities_in_place(old, count, cache)
         probabilities_in_place(new, count, cache)
-        _apply(cell, old, new, count, self.band, self.thresholds, self.sums.reshape(-1),
-               self.outside.reshape(-1), self.crossed.reshape(-1))  # fmt: skip
+        totals = (self.band, self.thresholds, self.sums.reshape(-1), self.outside.reshape(-1),
+                  self.crossed.reshape(-1))  # fmt: skip
+        _apply(cell, old, new, count, *totals)
+        _apply_first_misses(first_misses, sigmoid_one(first_miss), *totals)
         return True
 
     def recount(self, cells: np.ndarray, blocks: np.ndarray) -> None:
@@ -113,11 +116,13 @@ class CellTally:
         self.outside[index] = outside.sum(axis=(1, 2, 3))
 
 
-def new_log(capacity: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """An empty change log of ``capacity`` entries for the insertion kernel: (cell, old, new)
-    — see :func:`~nbv_gym.mapping.traversal.insert_scan`."""
+def new_log(capacity: int, cells: int) -> tuple[np.ndarray, ...]:
+    """An empty change log of ``capacity`` entries over a coarse grid of ``cells`` cells for
+    the insertion kernel: (cell, old, new, first_misses) — see
+    :func:`~nbv_gym.mapping.traversal.insert_scan`."""
     cell = np.empty(capacity, np.int32)
-    return cell, np.empty(capacity, np.float32), np.empty(capacity, np.float32)
+    first_misses = np.zeros(cells, np.int32)
+    return cell, np.empty(capacity, np.float32), np.empty(capacity, np.float32), first_misses
 
 
 @njit(cache=True)
@@ -136,5 +141,24 @@ def _apply(cell, old, new, count, band, thresholds, sums, outside, crossed):
                     crossed[c] = True
 
 
+@njit(cache=True)
+def _apply_first_misses(first_misses, p, band, thresholds, sums, outside, crossed):
+    """Add ``first_misses[c]`` changes from unknown (p = 0.5) to probability ``p`` to each cell
+    c as :func:`_apply` would one by one (the sums are exact: one product is their sum), and
+    zero the counts."""
+    change = np.float64(p) - np.float64(np.float32(0.5))
+    out = (p <= band[0] or p >= band[1]) - (np.float32(0.5) <= band[0] or np.float32(0.5) >= band[1])
+    crossing = False
+    for t in thresholds:
+        crossing |= (np.float32(0.5) > t) != (p > t)
+    for c in range(first_misses.shape[0]):
+        n = first_misses[c]
+        if n:
+            sums[c] += n * change
+            outside[c] += n * out
+            crossed[c] |= crossing
+            first_misses[c] = 0
+
+
 #: The log of a map that keeps no tally: every change overflows it, nothing is written.
-NO_LOG = new_log(0)
+NO_LOG = new_log(0, 0)

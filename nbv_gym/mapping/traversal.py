@@ -129,9 +129,11 @@ def insert_scan(
         cells: (3, max(nx, ny, nz)) int64 per voxel index along x, y, z (row 0, 1, 2) the
             contribution of its coarse cell index to the flat index (index × stride), −1 outside
             the coarse grid.
-        log: (cell, old, new): the changes of voxels inside the coarse grid, one entry each
-            while the (capacity,) arrays last: int32 flat coarse ``cell``, float32 ``old`` (NaN when
-            unknown) and ``new`` log-odds.
+        log: (cell, old, new, first_misses): the changes of voxels inside the coarse grid,
+            one entry each while the (capacity,) arrays last: int32 flat coarse ``cell``,
+            float32 ``old`` (NaN when unknown) and ``new`` log-odds — except a voxel's first
+            miss (unknown to the miss log-odds, most changes of a scan), counted per coarse
+            cell in the (cells,) int32 ``first_misses`` instead (empty: log it too).
         dirty: (bricks,) bool: set for each brick (block of the store) written; the voxels of a
             brick not set are all unknown (0).
         columns: :meth:`ColumnCounts.kernel_args <nbv_gym.mapping.columns.ColumnCounts>`: the
@@ -139,8 +141,8 @@ def insert_scan(
             to date (empty ``x_cell``: none).
 
     Returns:
-        Number of voxels that received a hit, number of changes inside the coarse grid (more
-        than the log's capacity when they did not all fit).
+        Number of voxels that received a hit, number of logged changes inside the coarse grid
+        (more than the log's capacity when they did not all fit).
     """
     x_offset, y_offset, z_offset = offsets
     x_mark, y_mark, z_mark = window
@@ -148,7 +150,8 @@ def insert_scan(
     col_x, col_y, layers, occupied_bound, known_count, occupied_count, col_changed = columns
     counting = col_x.shape[0] > 0
     lo_min, lo_max = bounds[0], bounds[1]
-    log_cell, log_old, log_new = log
+    log_cell, log_old, log_new, first_misses = log
+    counting_first = first_misses.shape[0] > 0
     n_points = len(points)
     near = np.empty(n_points, dtype=np.bool_)
     for r in range(n_points):
@@ -213,11 +216,14 @@ def insert_scan(
                     if ca >= 0 and cb >= 0 and cc >= 0:
                         cell = ca + cb + cc
                         touched[cell] = True
-                        if n_changes < log_cell.shape[0]:
-                            log_cell[n_changes] = cell
-                            log_old[n_changes] = old if known else np.float32(np.nan)
-                            log_new[n_changes] = new
-                        n_changes += 1
+                        if counting_first and not (known or hit):
+                            first_misses[cell] += 1
+                        else:
+                            if n_changes < log_cell.shape[0]:
+                                log_cell[n_changes] = cell
+                                log_old[n_changes] = old if known else np.float32(np.nan)
+                                log_new[n_changes] = new
+                            n_changes += 1
             if hit:
                 break
             cx, cy, cz, tx, ty, tz = _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz)

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nbv_gym.mapping.traversal import OUTSIDE
+
 
 @dataclass
 class ColumnCounts:
@@ -39,10 +41,9 @@ class ColumnCounts:
         """What the insertion kernel reads and updates, in its order: per voxel index along x
         and y its part of the flat cell index (x part + y part < 0 outside the grid), the
         layers, the bound and flat views of the counts and flags."""
-        outside = -(1 << 40)
         ny = self.known.shape[1]
-        x_part = np.where(self.x_cell >= 0, self.x_cell * ny, outside)
-        y_part = np.where(self.y_cell >= 0, self.y_cell, outside)
+        x_part = np.where(self.x_cell >= 0, self.x_cell * ny, OUTSIDE)
+        y_part = np.where(self.y_cell >= 0, self.y_cell, OUTSIDE)
         return (
             x_part, y_part, self.layers, self.bound, self.known.reshape(-1),
             self.occupied.reshape(-1), self.changed.reshape(-1),

@@ -73,7 +73,7 @@ def _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz):
     return cx, cy, cz + sz, tx, ty, tz + ddz
 
 
-#: A marking-window table entry outside the window: any sum of three entries with it is < 0.
+#: A table entry for an index outside the window (or grid): any sum of three entries with it is < 0.
 OUTSIDE = -(1 << 40)
 
 

@@ -31,7 +31,6 @@
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass
 
@@ -286,13 +285,31 @@ def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) ->
 
 @njit(cache=True)
 def _dijkstra(passable, si, sj, step):
+    """Dijkstra's algorithm on the 8-connected grid with a binary min-heap in two arrays (keys
+    and flat cells; a cell is pushed again when its distance drops, stale entries are skipped),
+    its sift loops written out (numba adds reference counting to every call of a helper that
+    takes arrays). Any correct order of settling gives the same distances, bit for bit: each
+    is the least ``dist[u] + w`` over the neighbours settled before it."""
     nx, ny = passable.shape
     dist = np.full((nx, ny), np.inf)
     dist[si, sj] = 0.0
-    heap = [(0.0, si * ny + sj)]
+    keys = np.empty(8 * nx * ny + 1)  # each cell is pushed at most once per neighbour
+    cells = np.empty(8 * nx * ny + 1, np.int64)
+    keys[0], cells[0], size = 0.0, si * ny + sj, 1
     diagonal = step * math.sqrt(2.0)
-    while heap:
-        d, flat = heapq.heappop(heap)
+    while size:
+        d, flat = keys[0], cells[0]
+        size -= 1
+        key, cell, slot = keys[size], cells[size], 0  # the last entry sifts down from the root
+        while 2 * slot + 1 < size:
+            child = 2 * slot + 1
+            if child + 1 < size and keys[child + 1] < keys[child]:
+                child += 1
+            if keys[child] >= key:
+                break
+            keys[slot], cells[slot] = keys[child], cells[child]
+            slot = child
+        keys[slot], cells[slot] = key, cell
         i, j = flat // ny, flat % ny
         if d > dist[i, j]:
             continue
@@ -304,7 +321,12 @@ def _dijkstra(passable, si, sj, step):
                 nd = d + (diagonal if di != 0 and dj != 0 else step)
                 if nd < dist[a, b]:
                     dist[a, b] = nd
-                    heapq.heappush(heap, (nd, a * ny + b))
+                    slot = size  # push: sift up from the new last slot
+                    size += 1
+                    while slot > 0 and keys[(slot - 1) >> 1] > nd:
+                        keys[slot], cells[slot] = keys[(slot - 1) >> 1], cells[(slot - 1) >> 1]
+                        slot = (slot - 1) >> 1
+                    keys[slot], cells[slot] = nd, a * ny + b
     return dist
 
 

@@ -83,6 +83,32 @@ def test_path_lengths_are_8_connected_distances_around_a_wall():
     assert np.isinf(path_lengths(walled, (0, 0), 0.5)[4, 0])
 
 
+@pytest.mark.parametrize("density", [0.55, 0.8, 1.0])
+def test_path_lengths_equal_scipys_dijkstra_bit_for_bit(density):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    rng = np.random.default_rng(int(density * 100))
+    passable = rng.random((40, 30)) < density
+    start = (17, 11)
+    n = passable.size
+    rows, cols, weights = [], [], []
+    index = np.arange(n).reshape(passable.shape)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if di or dj:  # an edge into every passable neighbour (the start is always a source)
+                a = index[max(0, -di) : passable.shape[0] - max(0, di),
+                          max(0, -dj) : passable.shape[1] - max(0, dj)]  # fmt: skip
+                b = a + di * passable.shape[1] + dj
+                into = passable.ravel()[b]
+                rows += a[into].tolist()
+                cols += b[into].tolist()
+                weights += [0.5 * (R2 if di and dj else 1.0)] * int(into.sum())
+    graph = coo_matrix((weights, (rows, cols)), shape=(n, n)).tocsr()
+    expected = dijkstra(graph, indices=index[start]).reshape(passable.shape)
+    np.testing.assert_array_equal(path_lengths(passable, start, 0.5), expected)
+
+
 def test_goals_valid_costs_and_frontier_goals():
     nav = layer()
     nav.update(*known_free_west(), robot_xy=(-1.5, -1.5))  # goal (1, 1), nav cell (3, 3)

@@ -37,15 +37,17 @@ class ColumnCounts:
     occupied: np.ndarray
     changed: np.ndarray
 
-    def kernel_args(self) -> tuple:
-        """What the insertion kernel reads and updates, in its order: per voxel index along x
-        and y its part of the flat cell index (x part + y part < 0 outside the grid), the
-        layers, the bound and flat views of the counts and flags."""
+    def __post_init__(self) -> None:
         ny = self.known.shape[1]
-        x_part = np.where(self.x_cell >= 0, self.x_cell * ny, OUTSIDE)
-        y_part = np.where(self.y_cell >= 0, self.y_cell, OUTSIDE)
+        #: per voxel index along x and y its part of the flat cell index (the sum < 0 outside)
+        self.x_part = np.where(self.x_cell >= 0, self.x_cell * ny, OUTSIDE)
+        self.y_part = np.where(self.y_cell >= 0, self.y_cell, OUTSIDE)
+
+    def kernel_args(self) -> tuple:
+        """What the insertion kernel reads and updates, in its order: :attr:`x_part` and
+        :attr:`y_part`, the layers, the bound and flat views of the counts and flags."""
         return (
-            x_part, y_part, self.layers, self.bound, self.known.reshape(-1),
+            self.x_part, self.y_part, self.layers, self.bound, self.known.reshape(-1),
             self.occupied.reshape(-1), self.changed.reshape(-1),
         )  # fmt: skip
 

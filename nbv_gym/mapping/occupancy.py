@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from nbv_gym.arrayfiles import array_of, read_saved
-from nbv_gym.arrays import BoolArray, FloatArray
+from nbv_gym.arrays import BoolArray, FloatArray, finite_rows
 from nbv_gym.config import check
 from nbv_gym.errors import ConfigError, DataFileError, NbvGymError, PoseError
 from nbv_gym.grid import GridSpec
@@ -30,7 +30,13 @@ from nbv_gym.mapping.columns import NO_COLUMNS, ColumnCounts
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
 from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_known
 from nbv_gym.mapping.tally import NO_LOG, CellTally
-from nbv_gym.mapping.traversal import BRICK, axis_offsets, insert_scan, window_tables
+from nbv_gym.mapping.traversal import (
+    BRICK,
+    axis_offsets,
+    fill_window_tables,
+    insert_scan,
+    window_patterns,
+)
 
 _FORMAT = "nbv_gym.OccupancyMap/1"
 
@@ -149,6 +155,9 @@ class OccupancyMap:
         self._store = self._pages.array
         self._window_shape = self._marking_window(grid, max_range_m)
         self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
+        self._mark_patterns = window_patterns(self._window_shape)
+        self._mark_tables = tuple(np.empty(n + 2, np.int64) for n in grid.shape)
+        self._region_cells: dict[tuple, np.ndarray] = {}  # _touch_grid's tables per region
         self._dirty = np.zeros(self._pages.n_blocks, bool)  # store blocks written since clear()
         self._first_scan = np.zeros(self._pages.n_blocks, bool)  # blocks the first scan wrote
         self._scans = 0  # since the last clear()
@@ -203,12 +212,12 @@ class OccupancyMap:
         """
         origin_grid = self._origin_in_grid(origin)
         points = _as_points(points)
-        finite = np.isfinite(points).all(axis=1)
+        finite = finite_rows(points)
         points_grid = (points[finite] - self.grid.low) / self.grid.res
         touched, cells = self._touch_grid(region)
         if tally is not None and tally.sums.shape != touched.shape:
             raise NbvGymError(f"a tally of {tally.sums.shape} cells needs a region of that shape")
-        window = window_tables(self._window(origin_grid), self.grid.shape)
+        fill_window_tables(self._mark_tables, self._mark_patterns, self._window(origin_grid))
         self._marks[:] = 0
         log = NO_LOG if tally is None else tally.log
         n_occupied, n_changes = insert_scan(
@@ -220,7 +229,7 @@ class OccupancyMap:
             self._deltas,
             self._bounds,
             self._marks,
-            window,
+            self._mark_tables,
             touched.reshape(-1),
             cells,
             log,
@@ -267,10 +276,17 @@ class OccupancyMap:
 
     def _touch_grid(self, region: GridSpec | None) -> tuple[np.ndarray, np.ndarray]:
         """The empty touched mask over ``region`` and the (3, n) part of the flat region cell
-        index (cell index × stride) of each voxel index along each axis (−1 outside the region)."""
-        n = max(self.grid.shape)
+        index (cell index × stride) of each voxel index along each axis (−1 outside the region),
+        computed once per region."""
         if region is None:
-            return np.zeros((0, 0, 0), bool), np.full((3, n), -1, np.int64)
+            return np.zeros((0, 0, 0), bool), np.full((3, max(self.grid.shape)), -1, np.int64)
+        key = (tuple(region.origin), region.res, tuple(region.shape))
+        if key not in self._region_cells:
+            self._region_cells[key] = self._region_index(region)
+        return np.zeros(region.shape, bool), self._region_cells[key]
+
+    def _region_index(self, region: GridSpec) -> np.ndarray:
+        """:meth:`_touch_grid`'s (3, n) table of ``region``; ConfigError unless it is aligned."""
         factor = region.res / self.grid.res
         offset = (region.low - self.grid.low) / self.grid.res
         if not (_is_whole(factor) and factor >= 1 and np.all(_is_whole(offset))):
@@ -278,11 +294,10 @@ class OccupancyMap:
                 f"region grid (origin {region.origin}, {region.res} m cells) must be aligned to the "
                 f"map's {self.grid.res} m voxels and use a whole multiple of that cell size"
             )
-        cells = (np.arange(n) - np.rint(offset)[:, None]) // round(factor)
+        cells = (np.arange(max(self.grid.shape)) - np.rint(offset)[:, None]) // round(factor)
         outside = (cells < 0) | (cells >= np.asarray(region.shape)[:, None])
         strides = np.array([region.shape[1] * region.shape[2], region.shape[2], 1])
-        cells = np.where(outside, -1, cells * strides[:, None])
-        return np.zeros(region.shape, bool), cells.astype(np.int64)
+        return np.where(outside, -1, cells * strides[:, None]).astype(np.int64)
 
     # ------------------------------------------------------------------ queries
 

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from nbv_gym.arrayfiles import array_of, read_saved
-from nbv_gym.arrays import FloatArray
+from nbv_gym.arrays import FloatArray, finite_rows
 from nbv_gym.config import check
 from nbv_gym.errors import DataFileError, NbvGymError
 from nbv_gym.grid import GridSpec
@@ -134,7 +134,7 @@ class ViewpointStatistics:
         if not np.isfinite(origin).all():
             raise NbvGymError(f"sensor position must be finite, got {origin.tolist()}")
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        keep = np.isfinite(points).all(axis=1)
+        keep = finite_rows(points)
         keep[keep] = points[keep, 2] >= self.min_return_z_m
         observe_scan(
             self._n_obs,

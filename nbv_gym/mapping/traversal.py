@@ -77,23 +77,28 @@ def _advance(cx, cy, cz, tx, ty, tz, sx, sy, sz, ddx, ddy, ddz):
 OUTSIDE = -(1 << 40)
 
 
-def window_tables(window: np.ndarray, map_shape: tuple[int, int, int]) -> tuple[np.ndarray, ...]:
-    """The per-scan marking window as three int64 tables over the voxel indices −1 … n along
-    x, y and z (entry ``i + 1`` for index ``i``): voxel (i, j, k) has bit
-    ``x[i + 1] + y[j + 1] + z[k + 1]`` of the window's bitset, a negative sum outside the window
-    or the map. ``window`` = (3, 3) int64 rows: low voxel, limit (``min(window shape, map shape −
-    low)``) and shape (multiples of 8). The bitset is stored in bricks of 8 × 8 × 8 bits, one
-    64-byte cache line each."""
-    low, limit, shape = window
-    bricks = shape >> 3
+def window_patterns(shape: np.ndarray) -> tuple[np.ndarray, ...]:
+    """For a per-scan marking window of ``shape`` (3,) voxels (multiples of 8), stored as a
+    bitset in bricks of 8 × 8 × 8 bits (one 64-byte cache line each): three int64 arrays, the
+    part of a voxel's bit index contributed by its offset in the window along x, y and z."""
+    bricks = np.asarray(shape) >> 3
     strides = (bricks[1] * bricks[2], bricks[2], 1)
-    tables = []
-    for axis in range(3):
-        table = np.full(map_shape[axis] + 2, OUTSIDE, np.int64)
-        a = np.arange(limit[axis])
-        table[low[axis] + 1 + a] = ((a >> 3) * strides[axis] << 9) | ((a & 7) << (6 - 3 * axis))
-        tables.append(table)
-    return tuple(tables)
+    return tuple(
+        ((a >> 3) * strides[axis] << 9) | ((a & 7) << (6 - 3 * axis))
+        for axis, a in enumerate(np.arange(n, dtype=np.int64) for n in shape)
+    )
+
+
+def fill_window_tables(tables: tuple, patterns: tuple, window: np.ndarray) -> None:
+    """Set the three int64 ``tables`` over the voxel indices −1 … n of a map along x, y and z
+    (entry ``i + 1`` for index ``i``) for the marking window ``window`` = (3, 3) rows: low
+    voxel, limit (``min(window shape, map shape − low)``) and shape, whose
+    :func:`window_patterns` are ``patterns``: voxel (i, j, k) then has bit ``x[i + 1] + y[j + 1]
+    + z[k + 1]`` of the window's bitset, a negative sum outside the window or the map."""
+    low, limit, _ = window
+    for table, pattern, first, count in zip(tables, patterns, low, limit, strict=True):
+        table.fill(OUTSIDE)
+        table[first + 1 : first + 1 + count] = pattern[:count]
 
 
 @njit(cache=True)
@@ -122,8 +127,8 @@ def insert_scan(
         max_range: sensor range in grid units.
         deltas: (2,) float32 log-odds of a hit and of a miss; bounds: (2,) float32 clamping bounds.
         marks: uint8 bitset over the window, all zero on entry (left set on return).
-        window: the marking window's :func:`window_tables`; the window must hold every voxel
-            within range.
+        window: the marking window's tables (:func:`fill_window_tables`); the window must hold
+            every voxel within range.
         touched: flat bool over the coarse grid's cells; a cell is set when a voxel inside it
             changes value.
         cells: (3, max(nx, ny, nz)) int64 per voxel index along x, y, z (row 0, 1, 2) the

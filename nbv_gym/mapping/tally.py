@@ -4,8 +4,10 @@ crossed a coverage threshold (else its coverage cannot have changed) — without
 voxels.
 
 :meth:`OccupancyMap.insert <nbv_gym.mapping.OccupancyMap.insert>` logs every voxel whose value
-changes while it inserts a scan, then the tally applies the log (:meth:`CellTally.apply`); a scan
-that changes more voxels than the log holds is recounted from the map instead (and the log grows).
+changes while it inserts a scan — except first misses (unknown to the miss log-odds, most of a
+scan's changes), which it counts per cell — then the tally applies the log and the counts
+(:meth:`CellTally.apply`); a scan that logs more changes than the log holds is recounted from the
+map instead (and the log grows).
 
 The sums are exact, not approximations of a fresh sum: every probability of a known voxel is a
 float32 of at least the map's lower clamp, hence a multiple of the float32 spacing at that clamp
@@ -23,8 +25,9 @@ from numba import njit
 from nbv_gym.config import check
 from nbv_gym.mapping.probability import probabilities_in_place, sigmoid_one
 
-#: Changes the log holds at first (12 bytes each: 6 MiB); a benchmark scan changes ~250 k voxels.
-LOG_CAPACITY = 1 << 19
+#: Changes the log holds at first (12 bytes each: 1.5 MiB); a benchmark scan changes 100–250 k voxels,
+#: of which it logs 0–50 k (the others are first misses, counted per cell).
+LOG_CAPACITY = 1 << 17
 
 
 class CellTally:

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from nbv_gym.mapping import OccupancyMap, ViewpointStatistics
+from nbv_gym.metrics.cuboids import QualityConfig, evaluate_cuboids
 from nbv_gym.simulator import InvalidActionError, Simulator, SimulatorConfig
 
 WORLD = "pp1-cuboids"
@@ -109,3 +110,25 @@ def test_quality_is_computed_on_the_maps_voxels_and_clamp():
     assert cuboids.cuboid_voxels * cuboids.voxel_size_m == pytest.approx(
         config.mapping.statistics.cell_m
     )
+
+
+def test_incremental_quality_equals_a_full_recomputation_of_the_map():
+    """Scan by scan the simulator re-evaluates only the touched cuboids and searches coverage
+    only where a voxel crossed a threshold (one below 0.5 here, which unknown voxels exceed); the
+    result must equal the metrics of the whole map recomputed from scratch, bit for bit."""
+    settings = ((0.8, 0.05), (0.45, 0.1), (0.7, 0.15))
+    sim = Simulator(SimulatorConfig(world=WORLD, noise=1, quality=QualityConfig(
+        cov_settings=settings, q_setting=2)))  # fmt: skip
+    sim.reset(3)
+    for _ in range(3):
+        sim.step(int(np.flatnonzero(sim.goal_mask())[-1]))
+    gt = np.zeros(sim.voxel_grid.shape, bool)
+    gt[tuple(sim.world.ground_truth.grid_voxels(sim.voxel_grid).T)] = True
+    probability = sim.occupancy.probability(sim.voxel_grid)
+    full = evaluate_cuboids(probability, gt, sim.quality.config)
+    kept = sim.quality.metrics()
+    np.testing.assert_array_equal(kept.observed, full.observed)
+    np.testing.assert_array_equal(kept.l1, full.l1)
+    np.testing.assert_array_equal(kept.cov, full.cov)
+    np.testing.assert_equal(astuple(sim.summary), astuple(full.summary()))
+    assert 0 < sim.summary.q < 1 and kept.observed.sum() > 100

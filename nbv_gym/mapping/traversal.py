@@ -153,7 +153,9 @@ def insert_scan(
     x_mark, y_mark, z_mark = window
     n_x, n_y, n_z = x_mark.shape[0] - 2, y_mark.shape[0] - 2, z_mark.shape[0] - 2
     col_x, col_y, layers, occupied_bound, known_count, occupied_count, col_changed = columns
-    counting = col_x.shape[0] > 0
+    known_first, known_end, occupied_first, occupied_end = layers[0], layers[1], layers[2], layers[3]
+    if col_x.shape[0] == 0:  # no counts to keep: empty bands
+        known_first = known_end = occupied_first = occupied_end = 0
     lo_min, lo_max = bounds[0], bounds[1]
     log_cell, log_old, log_new, first_misses = log
     counting_first = first_misses.shape[0] > 0
@@ -206,12 +208,14 @@ def insert_scan(
                 if not (known and new == old):
                     store[i] = stored(new)
                     dirty[i >> 10] = True
-                    column = col_x[cx] + col_y[cy] if counting else -1
-                    if column >= 0:
-                        if not known and layers[0] <= cz < layers[1]:
+                    in_known = not known and known_first <= cz < known_end
+                    in_occupied = occupied_first <= cz < occupied_end
+                    column = col_x[cx] + col_y[cy] if in_known or in_occupied else -1
+                    if column >= 0:  # the voxel counts in a navigation band of a grid column
+                        if in_known:
                             known_count[column] += 1
                             col_changed[column] = True
-                        if layers[2] <= cz < layers[3]:
+                        if in_occupied:
                             was = known and old >= occupied_bound
                             now = stored(new) >= occupied_bound
                             if was != now:

@@ -32,6 +32,7 @@ from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_kn
 from nbv_gym.mapping.tally import NO_LOG, CellTally
 from nbv_gym.mapping.traversal import (
     BRICK,
+    OUTSIDE,
     axis_offsets,
     fill_window_tables,
     insert_scan,
@@ -276,10 +277,10 @@ class OccupancyMap:
 
     def _touch_grid(self, region: GridSpec | None) -> tuple[np.ndarray, np.ndarray]:
         """The empty touched mask over ``region`` and the (3, n) part of the flat region cell
-        index (cell index × stride) of each voxel index along each axis (−1 outside the region),
-        computed once per region."""
+        index (cell index × stride) of each voxel index along each axis (``OUTSIDE`` outside the
+        region: a sum with one is negative), computed once per region."""
         if region is None:
-            return np.zeros((0, 0, 0), bool), np.full((3, max(self.grid.shape)), -1, np.int64)
+            return np.zeros((0, 0, 0), bool), np.full((3, max(self.grid.shape)), OUTSIDE)
         key = (tuple(region.origin), region.res, tuple(region.shape))
         if key not in self._region_cells:
             self._region_cells[key] = self._region_index(region)
@@ -297,7 +298,7 @@ class OccupancyMap:
         cells = (np.arange(max(self.grid.shape)) - np.rint(offset)[:, None]) // round(factor)
         outside = (cells < 0) | (cells >= np.asarray(region.shape)[:, None])
         strides = np.array([region.shape[1] * region.shape[2], region.shape[2], 1])
-        return np.where(outside, -1, cells * strides[:, None]).astype(np.int64)
+        return np.where(outside, OUTSIDE, cells * strides[:, None]).astype(np.int64)
 
     # ------------------------------------------------------------------ queries
 

@@ -132,8 +132,8 @@ def insert_scan(
         touched: flat bool over the coarse grid's cells; a cell is set when a voxel inside it
             changes value.
         cells: (3, max(nx, ny, nz)) int64 per voxel index along x, y, z (row 0, 1, 2) the
-            contribution of its coarse cell index to the flat index (index × stride), −1 outside
-            the coarse grid.
+            contribution of its coarse cell index to the flat index (index × stride),
+            :data:`OUTSIDE` outside the coarse grid.
         log: (cell, old, new, first_misses): the changes of voxels inside the coarse grid,
             one entry each while the (capacity,) arrays last: int32 flat coarse ``cell``,
             float32 ``old`` (NaN when unknown) and ``new`` log-odds — except a voxel's first
@@ -221,9 +221,8 @@ def insert_scan(
                             if was != now:
                                 occupied_count[column] += 1 if now else -1
                                 col_changed[column] = True
-                    ca, cb, cc = cells[0, cx], cells[1, cy], cells[2, cz]
-                    if ca >= 0 and cb >= 0 and cc >= 0:
-                        cell = ca + cb + cc
+                    cell = cells[0, cx] + cells[1, cy] + cells[2, cz]
+                    if cell >= 0:  # inside the coarse grid
                         touched[cell] = True
                         if counting_first and not (known or hit):
                             first_misses[cell] += 1

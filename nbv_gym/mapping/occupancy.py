@@ -148,6 +148,8 @@ class OccupancyMap:
         self._deltas = np.array([logit(p_hit), logit(p_miss)], np.float32)
         self._bounds = np.array([logit(p_clamp_min), logit(p_clamp_max)], np.float32)
         self._lo_occupied = np.float32(logit(p_occupied))
+        #: the log-odds of an unknown voxel after its first miss
+        self._first_miss = min(max(self._deltas[1], self._bounds[0]), self._bounds[1])
         nx, ny, nz = grid.shape
         self._bricks = tuple(-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
         self._dims = np.array([*self._bricks[:2], nx, ny, nz], np.int64)
@@ -240,8 +242,7 @@ class OccupancyMap:
         if not self._scans:
             self._first_scan[:] = self._dirty
         self._scans += 1
-        first_miss = min(max(self._deltas[1], self._bounds[0]), self._bounds[1])  # from unknown
-        if tally is not None and not tally.apply(n_changes, self._sigmoid_cache, first_miss):
+        if tally is not None and not tally.apply(n_changes, self._sigmoid_cache, self._first_miss):
             cells = np.argwhere(touched)
             tally.recount(cells, self.probability_blocks(region, cells))
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)

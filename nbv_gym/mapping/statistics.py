@@ -159,8 +159,8 @@ class ViewpointStatistics:
         holding a cell the current scan observed."""
         columns = self._columns
         _project_columns(
-            self._stamp, -2 if every else self._scan_id, self._n_obs, self._r_min,
-            self._sectors, self._sum_u, columns["n_obs"], columns["r_min"], columns["n_omega"],
+            self._stamp, self._scan_id, every, self._n_obs, self._r_min, self._sectors,
+            self._sum_u, columns["n_obs"], columns["r_min"], columns["n_omega"],
             columns["sigma_theta"],
         )  # fmt: skip
 
@@ -265,15 +265,15 @@ def popcount(mask: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def _project_columns(stamp, scan_id, n_obs, r_min, sectors, sum_u, n_obs_2d, r_min_2d, n_omega_2d,
-                     sigma_theta_2d):  # fmt: skip
+def _project_columns(stamp, scan_id, every, n_obs, r_min, sectors, sum_u, n_obs_2d, r_min_2d,
+                     n_omega_2d, sigma_theta_2d):  # fmt: skip
     """Recompute the 2D projections over z (:meth:`ViewpointStatistics.column`) of the x, y
-    columns holding a cell that scan ``scan_id`` stamped (all columns for −2): the same values
+    columns holding a cell that scan ``scan_id`` stamped (of ``every`` column): the same values
     as :func:`popcount` and :func:`spherical_variance` give (|Σu| summed x² + y² + z² in that
     order, as numpy)."""
     for i in range(stamp.shape[0]):
         for j in range(stamp.shape[1]):
-            scanned = scan_id == -2
+            scanned = every
             for k in range(stamp.shape[2]):
                 scanned |= stamp[i, j, k] == scan_id
             if not scanned:

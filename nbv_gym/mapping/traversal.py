@@ -143,7 +143,7 @@ def insert_scan(
             brick not set are all unknown (0).
         columns: :meth:`ColumnCounts.kernel_args <nbv_gym.mapping.columns.ColumnCounts>`: the
             per-column counts of known and occupied voxels in the navigation bands to keep up
-            to date (empty ``x_cell``: none).
+            to date (``NO_COLUMNS``: empty bands, nothing counted).
 
     Returns:
         Number of voxels that received a hit, number of logged changes inside the coarse grid
@@ -154,8 +154,6 @@ def insert_scan(
     n_x, n_y, n_z = x_mark.shape[0] - 2, y_mark.shape[0] - 2, z_mark.shape[0] - 2
     col_x, col_y, layers, occupied_bound, known_count, occupied_count, col_changed = columns
     known_first, known_end, occupied_first, occupied_end = layers[0], layers[1], layers[2], layers[3]
-    if col_x.shape[0] == 0:  # no counts to keep: empty bands
-        known_first = known_end = occupied_first = occupied_end = 0
     lo_min, lo_max = bounds[0], bounds[1]
     log_cell, log_old, log_new, first_misses = log
     counting_first = first_misses.shape[0] > 0

@@ -27,13 +27,14 @@ UPDATES = 2
 def run(progress: Callable[[str], None]) -> dict[str, float]:
     """The suite's figures (module docstring) for MaskablePPO training on :data:`WORLD`."""
     from nbv_gym.rl.config import TrainConfig
-    from nbv_gym.rl.train import _create, make_vec_env, require_rl, set_torch_threads
+    from nbv_gym.rl.learner import prepare_learner
+    from nbv_gym.rl.train import _create, make_vec_env, require_rl
 
     require_rl()
     from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv, TorchThreads
 
     config = replace(TrainConfig(), train_worlds=(WORLD,), eval_worlds=())
-    threads = TorchThreads(*set_torch_threads(config.torch_threads, config.n_envs))
+    threads = TorchThreads(*prepare_learner(config.torch_threads, config.n_envs))
     per_update = config.learning.n_steps * config.n_envs
     envs = TimedVecEnv(make_vec_env(config))
     try:

@@ -78,7 +78,7 @@ class TimeLimit(BaseCallback):
 class TorchThreads(BaseCallback):
     """Gives torch ``rollout`` intra-op threads while the environment workers step and
     ``update`` threads while PPO updates (the workers idle meanwhile);
-    :func:`~nbv_gym.rl.train.torch_threads` chooses the counts."""
+    :func:`~nbv_gym.rl.learner.torch_threads` chooses the counts."""
 
     def __init__(self, rollout: int, update: int):
         super().__init__()

@@ -77,11 +77,12 @@ class MapExtractor(BaseFeaturesExtractor):
     def _image(self, observations: dict[str, th.Tensor]) -> th.Tensor:
         """(batch, C, side, side) float in channels-last memory: the layers, the unbounded ones
         log-scaled."""
-        layers = th.stack([observations[k] for k in self.layer_keys], dim=-1)  # (B, n_goals, C)
+        layers = th.stack([observations[k] for k in self.layer_keys], dim=1)  # (B, C, n_goals)
         if self.log_scaled:
-            scaled = th.log1p(layers.clamp(min=0)) / self.log_high
-            layers = th.where(self.log_high > 0, scaled, layers)
-        return layers.reshape(len(layers), self.side, self.side, -1).permute(0, 3, 1, 2)
+            high = self.log_high[:, None]
+            layers = th.where(high > 0, th.log1p(layers.clamp(min=0)) / high, layers)
+        image = layers.reshape(len(layers), -1, self.side, self.side)
+        return image.contiguous(memory_format=th.channels_last)
 
 
 def map_layer_keys(observation_space: spaces.Dict) -> list[str]:

@@ -9,7 +9,6 @@ training episode) and ``learning_curve.png`` (:mod:`nbv_gym.rl.curve`).
 
 from __future__ import annotations
 
-import os
 import platform
 import warnings
 from functools import partial
@@ -20,6 +19,7 @@ from nbv_gym.config import to_dict
 from nbv_gym.errors import ConfigError, MissingExtraError
 from nbv_gym.rl.config import ALGORITHMS, TrainConfig
 from nbv_gym.rl.curve import EPISODES_CSV, plot_learning_curve
+from nbv_gym.rl.learner import prepare_learner
 
 #: SB3 algorithm class names → ``module:Class`` (SB3's classes saving lean model files).
 ALGORITHM_CLASSES = {name: f"nbv_gym.rl.algorithms:{name}" for name in ALGORITHMS}
@@ -56,7 +56,7 @@ def train(
     """
     require_rl()
     check_device(config.device)
-    threads = set_torch_threads(config.torch_threads, config.n_envs)
+    threads = prepare_learner(config.torch_threads, config.n_envs)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_run_info(config, out)
@@ -98,29 +98,6 @@ def check_device(device: str) -> None:
             f"device: cuda requested, but torch {torch.__version__} sees no CUDA device; "
             "install a CUDA build of torch, or train with --device cpu (or auto)."
         )
-
-
-def torch_threads(threads: int, n_envs: int) -> tuple[int, int]:
-    """Torch intra-op threads (during rollouts, during updates): ``threads`` for both when set.
-    0: during rollouts one per core that no environment worker runs on (at least one) — more
-    threads than free cores make OpenMP wait for descheduled threads: on a busy 2-core machine 2
-    threads made the policy's forward passes 10 times slower than 1 (``nbv-gym bench --suite
-    rl``) — and during updates, while the workers wait, one per core."""
-    affinity = getattr(os, "sched_getaffinity", None)  # Linux only
-    cores = len(affinity(0)) if affinity else os.cpu_count() or 1
-    if threads:
-        return threads, threads
-    return max(1, cores - (n_envs if n_envs > 1 else 0)), cores
-
-
-def set_torch_threads(threads: int, n_envs: int) -> tuple[int, int]:
-    """Give torch the rollout threads of :func:`torch_threads` now; returns both counts (the
-    :class:`~nbv_gym.rl.callbacks.TorchThreads` callback switches between them)."""
-    import torch
-
-    counts = torch_threads(threads, n_envs)
-    torch.set_num_threads(counts[0])
-    return counts
 
 
 def make_vec_env(config: TrainConfig, seed_offset: int = 0):

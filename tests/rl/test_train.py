@@ -137,24 +137,3 @@ def test_goal_map_network_is_lean():
     dense = replace(TrainConfig(), network="dense")
     assert policy_setup(dense)[0] == "MultiInputPolicy"
 
-
-def test_torch_threads_explicit_or_one_per_free_core_and_all_cores_for_updates():
-    import os
-
-    from nbv_gym.rl.callbacks import TorchThreads
-    from nbv_gym.rl.train import set_torch_threads, torch_threads
-
-    cores = len(os.sched_getaffinity(0))
-    assert torch_threads(3, n_envs=2) == (3, 3)
-    assert torch_threads(0, n_envs=1) == (cores, cores)
-    assert torch_threads(0, n_envs=10_000) == (1, cores)  # more environments than cores
-    before = th.get_num_threads()
-    try:
-        assert set_torch_threads(0, n_envs=10_000) == (1, cores) and th.get_num_threads() == 1
-        switch = TorchThreads(1, 5)
-        switch._on_rollout_end()
-        assert th.get_num_threads() == 5  # the PPO update: the workers wait
-        switch._on_rollout_start()
-        assert th.get_num_threads() == 1
-    finally:
-        th.set_num_threads(before)

@@ -117,7 +117,8 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
         envs = DummyVecEnv(factories)
     else:
         with worker_environment():  # workers share few cores: no nested thread pools
-            envs = LeanSubprocVecEnv(factories, start_method="forkserver")
+            masks = ("action_masks",) if config.algorithm == "MaskablePPO" else ()
+            envs = LeanSubprocVecEnv(factories, start_method="forkserver", prefetch=masks)
     envs.seed(config.seed + seed_offset)
     return envs
 

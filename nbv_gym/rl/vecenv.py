@@ -6,6 +6,8 @@ uses. :class:`LeanSubprocVecEnv` keeps SB3's ``VecEnv`` contract and its worker 
 reset with seeds and options, ``terminal_observation`` and ``TimeLimit.truncated`` at episode
 ends, attributes, methods, wrappers), with the child side in :mod:`nbv_gym.rl.vecworker`. An
 exception in an environment is raised in the parent, with the worker's traceback as its cause.
+Methods named in ``prefetch`` (``action_masks`` for MaskablePPO) are answered from the last step
+or reset, which brought their answers along: one round trip to the workers per step, not two.
 
 Like every ``forkserver`` or ``spawn`` child, a worker imports the parent's main module (as
 ``__mp_main__``): a script whose top level imports torch or SB3 brings them back into every
@@ -42,18 +44,24 @@ class WorkerTraceback(Exception):
 
 class LeanSubprocVecEnv(VecEnv):
     """The environments built by ``env_fns``, one worker process each, started with
-    ``start_method`` (``forkserver``: Embree's thread pool does not survive ``fork``)."""
+    ``start_method`` (``forkserver``: Embree's thread pool does not survive ``fork``).
+    ``prefetch``: methods whose answers (called without arguments) come with every step and
+    reset; :meth:`env_method` returns them until the next command reaches the workers."""
 
     def __init__(
-        self, env_fns: Sequence[Callable[[], gymnasium.Env]], start_method: str = "forkserver"
+        self,
+        env_fns: Sequence[Callable[[], gymnasium.Env]],
+        start_method: str = "forkserver",
+        prefetch: Sequence[str] = (),
     ):
         context = multiprocessing.get_context(start_method)
         self.remotes, self.processes = [], []
+        self._prefetched: list[dict[str, Any]] = [{} for _ in env_fns]
         for env_fn in env_fns:
             remote, work_remote = context.Pipe()
             process = context.Process(
                 target=vecworker.serve,
-                args=(work_remote, remote, cloudpickle.dumps(env_fn)),
+                args=(work_remote, remote, cloudpickle.dumps(env_fn), tuple(prefetch)),
                 daemon=True,  # a crashed parent leaves no workers behind
             )
             process.start()
@@ -119,6 +127,10 @@ class LeanSubprocVecEnv(VecEnv):
     def env_method(
         self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
     ) -> list[Any]:
+        indices = list(self._get_indices(indices))
+        if not (method_args or method_kwargs):
+            if all(method_name in self._prefetched[i] for i in indices):
+                return [self._prefetched[i][method_name] for i in indices]
         return self._call("env_method", (method_name, method_args, method_kwargs), indices)
 
     def env_is_wrapped(
@@ -146,8 +158,10 @@ class LeanSubprocVecEnv(VecEnv):
         return [result for _, _, result in answers]
 
     def _receive_one(self, i: int) -> tuple[bool, Any]:
+        """Worker ``i``'s answer ``(ok, result)``; keeps what it prefetched (nothing but after a
+        step or reset: any other command may change what the methods answer)."""
         try:
-            return self.remotes[i].recv()
+            ok, result, *prefetched = self.remotes[i].recv()
         except (EOFError, ConnectionResetError):
             process = self.processes[i]
             process.join(timeout=1.0)
@@ -155,6 +169,8 @@ class LeanSubprocVecEnv(VecEnv):
                 f"The worker of environment {i} (pid {process.pid}) exited with code "
                 f"{process.exitcode}; its output above may say why."
             ) from None
+        self._prefetched[i] = prefetched[0] if prefetched else {}
+        return ok, result
 
     def _stack(self, observations: list) -> VecEnvObs:
         """Observations of each environment stacked along a first axis, per key of a ``Dict``

@@ -8,7 +8,10 @@ resident memory per worker that no environment uses). The environment factory ar
 
 The protocol is SB3's ``SubprocVecEnv``'s: the parent sends ``(command, data)`` and the worker
 answers ``(True, result)``, or ``(False, (exception, traceback text))`` when the environment
-raised, so the parent can raise it in turn.
+raised, so the parent can raise it in turn. Answers to ``step`` and ``reset`` carry a third item:
+the answers of the environment's ``prefetch`` methods (for example ``action_masks``, which
+MaskablePPO asks for before every step) called with no arguments right after, so the parent
+need not ask for them in another round trip.
 """
 
 from __future__ import annotations
@@ -22,9 +25,12 @@ from typing import Any
 import gymnasium
 
 
-def serve(remote: Connection, parent_remote: Connection, env_fn: bytes) -> None:
+def serve(
+    remote: Connection, parent_remote: Connection, env_fn: bytes, prefetch: tuple[str, ...] = ()
+) -> None:
     """Build the environment from the pickled factory ``env_fn`` and answer the parent's commands
-    on ``remote`` until ``close``, the parent's end closing, or an interrupt."""
+    on ``remote`` until ``close``, the parent's end closing, or an interrupt; ``prefetch`` names
+    the methods whose answers come with every step and reset (module docstring)."""
     parent_remote.close()
     env = pickle.loads(env_fn)()
     try:
@@ -36,20 +42,37 @@ def serve(remote: Connection, parent_remote: Connection, env_fn: bytes) -> None:
             if command == "close":
                 env.close()
                 break
-            _answer(remote, env, command, data)
+            _answer(remote, env, command, data, prefetch)
     except KeyboardInterrupt:  # Ctrl-C reaches the whole process group: the parent handles it
         pass
     finally:
         remote.close()
 
 
-def _answer(remote: Connection, env: Any, command: str, data: Any) -> None:
+def _answer(
+    remote: Connection, env: Any, command: str, data: Any, prefetch: tuple[str, ...]
+) -> None:
     try:
         result = COMMANDS[command](env, data)
     except Exception as error:
         _send_error(remote, error, traceback.format_exc())
     else:
-        remote.send((True, result))
+        if command in ("step", "reset"):
+            remote.send((True, result, _prefetched(env, prefetch)))
+        else:
+            remote.send((True, result))
+
+
+def _prefetched(env: Any, names: tuple[str, ...]) -> dict[str, Any]:
+    """The answers of the methods ``names`` called with no arguments, leaving out those that
+    raise (the parent then calls them and gets the error)."""
+    answers = {}
+    for name in names:
+        try:
+            answers[name] = env.get_wrapper_attr(name)()
+        except Exception:
+            pass
+    return answers
 
 
 def _send_error(remote: Connection, error: Exception, text: str) -> None:

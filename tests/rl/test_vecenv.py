@@ -42,7 +42,7 @@ def rollout(envs, steps: int = STEPS, seed: int = 5) -> list:
     for _ in range(steps):
         masks = get_action_masks(envs)
         actions = np.array([rng.choice(np.flatnonzero(mask)) for mask in masks])
-        seen.append(envs.step(actions))
+        seen += [masks, envs.step(actions)]
     return seen
 
 
@@ -64,7 +64,7 @@ def assert_same(ours, theirs, path: str = "") -> None:
 
 @pytest.fixture(scope="module")
 def lean_envs(world):
-    envs = LeanSubprocVecEnv(factories(world, "lean"))
+    envs = LeanSubprocVecEnv(factories(world, "lean"), prefetch=("action_masks",))
     yield envs
     envs.close()
 
@@ -77,8 +77,8 @@ def test_runs_as_sb3s_subproc_vec_env(world, lean_envs):
     finally:
         sb3.close()
     ours = rollout(lean_envs)
-    dones = np.concatenate([step[2] for step in theirs[2:]])
-    infos = [info for *_, step_infos in theirs[2:] for info in step_infos]
+    dones = np.concatenate([step[2] for step in theirs[3::2]])
+    infos = [info for *_, step_infos in theirs[3::2] for info in step_infos]
     ended = [i for i in infos if "terminal_observation" in i]
     assert len(ended) == dones.sum() >= 2 * STEPS // 3 // 2 and all("episode" in i for i in ended)
     assert {i["world"] for i in infos} == {"tiny-cuboids", "pp1-cuboids"}
@@ -96,6 +96,23 @@ def test_attributes_methods_and_wrappers(lean_envs):
     assert lean_envs.env_is_wrapped(Monitor) == [False, False]  # nor does it import SB3
     masks = lean_envs.env_method("action_masks", indices=[0])
     assert len(masks) == 1 and masks[0].dtype == np.int8 and masks[0].any()
+
+
+def test_action_masks_come_with_every_step_and_reset(lean_envs, monkeypatch):
+    """MaskablePPO asks for the masks before every step: the workers send them with each step's
+    and reset's answer (the SB3 comparison above checks their values); another command makes
+    the next request a round trip again."""
+    calls = []
+    call = lean_envs._call
+    monkeypatch.setattr(lean_envs, "_call", lambda *args: calls.append(args[0]) or call(*args))
+    lean_envs.reset()
+    masks = get_action_masks(lean_envs)
+    lean_envs.step(np.array([np.flatnonzero(mask)[0] for mask in masks]))
+    after_step = get_action_masks(lean_envs)
+    assert calls == []
+    lean_envs.set_attr("reward_scale", 100.0)
+    assert_same(get_action_masks(lean_envs), after_step)
+    assert calls == ["set_attr", "env_method"]
 
 
 def test_an_environments_error_is_raised_in_the_parent_and_the_workers_go_on(lean_envs):

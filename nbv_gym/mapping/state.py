@@ -131,7 +131,8 @@ class ExplorationState:
     def cell_totals(self) -> tuple[np.ndarray, np.ndarray]:
         """Views of G's shape (gx, gy, gz): float64 Σ p of each cell's map voxels (unknown = 0.5)
         and int32 the number of them outside the unobserved band; NbvGymError without a band."""
-        return self._totals().sums, self._totals().outside
+        tally = self._totals()
+        return tally.sums, tally.outside
 
     def take_crossed(self) -> np.ndarray:
         """(k,) int64 flat indices of the cells of G holding a voxel whose probability crossed a

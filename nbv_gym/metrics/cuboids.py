@@ -323,7 +323,10 @@ def q_paper(cov: FloatArray, l1: FloatArray, config: CuboidConfig) -> float:
     cov, l1 = np.asarray(cov, float), np.asarray(l1, float)
     if cov.size + l1.size == 0:
         return float("nan")
-    fixed_l1 = lambda: 1 - empty_quality(l1, config)  # noqa: E731
+
+    def fixed_l1() -> FloatArray:  # normalised L1 (0 = best) with fixed bounds
+        return 1 - empty_quality(l1, config)
+
     return float(
         (_min_max(cov, lambda: cov).sum() + (1 - _min_max(l1, fixed_l1)).sum())
         / (cov.size + l1.size)

@@ -349,7 +349,7 @@ class Lookahead:
     pose (:meth:`Simulator.goal_pose`) and a copy of the simulator's generator, hence the same
     localisation and range noise. It is inserted into a scratch copy of the map and cell totals
     (:class:`~nbv_gym.mapping.scratch.ScanTrial`), its ΔQ read from a scratch quality tracker,
-    then both are restored. Build one after each reset (a new world changes the tracker).
+    then both are restored (the map by undoing the blocks the trial wrote). Build one after each reset (a new world changes the tracker).
     """
 
     def __init__(self, sim: Simulator):
@@ -373,7 +373,7 @@ class Lookahead:
                 self.tracker, trial.tally, trial.map, sim.goal_grid, update.touched_cells
             )
             out[index] = after.q - sim.summary.q
-            self.trial.restore()
+            self.trial.undo()
             self.tracker.restore(sim.quality)
         return out
 

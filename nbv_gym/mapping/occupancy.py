@@ -163,6 +163,7 @@ class OccupancyMap:
         self._region_cells: dict[tuple, np.ndarray] = {}  # _touch_grid's tables per region
         self._dirty = np.zeros(self._pages.n_blocks, bool)  # store blocks written since clear()
         self._first_scan = np.zeros(self._pages.n_blocks, bool)  # blocks the first scan wrote
+        self._journal = np.zeros(self._pages.n_blocks, bool)  # blocks inserts wrote since taken
         self._scans = 0  # since the last clear()
         self._sigmoid_cache = new_cache()
 
@@ -237,6 +238,7 @@ class OccupancyMap:
             cells,
             log,
             self._dirty,
+            self._journal,
             (columns or NO_COLUMNS).kernel_args(),
         )
         if not self._scans:
@@ -259,6 +261,13 @@ class OccupancyMap:
     def written_blocks(self) -> np.ndarray:
         """(n_blocks,) bool: the store's blocks written since the last :meth:`clear` (a copy)."""
         return self._dirty.copy()
+
+    def take_journal(self) -> np.ndarray:
+        """(n_blocks,) bool: the store's blocks that :meth:`insert` wrote since the last call
+        (or since the map was made); the journal starts empty again."""
+        blocks = self._journal.copy()
+        self._journal[:] = False
+        return blocks
 
     def copy_blocks(self, source: OccupancyMap, blocks: np.ndarray) -> None:
         """Make the store blocks flagged in the (n_blocks,) bool ``blocks`` equal to those of

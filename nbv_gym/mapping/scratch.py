@@ -3,8 +3,10 @@ the source state is never written (a one-step look-ahead's evaluation).
 
 The scratch map has its own store. :meth:`ScanTrial.restore` makes it equal to the source by
 copying, from the source, every block either map has written (a block neither wrote is unknown
-in both), and the cell totals. A trial costs the insertion and a copy of the written part of
-the map (an eighth of it after a long episode), not of the whole map.
+in both), and the cell totals: a copy of the written part of the map (an eighth of it after a
+long episode), once per state of the source. :meth:`ScanTrial.undo` then undoes a trial by
+copying back only the blocks its insertion wrote (the map's journal), so a trial costs about its
+insertion.
 """
 
 from __future__ import annotations
@@ -40,9 +42,19 @@ class ScanTrial:
 
     def restore(self) -> None:
         """Make the scratch map and totals equal to the source's now (before the first trial
-        and after each)."""
+        on a state of the source)."""
         source = self.source.occupancy
+        self.map.take_journal()
         self.map.copy_blocks(source, source.written_blocks() | self.map.written_blocks())
+        self._restore_totals()
+
+    def undo(self) -> None:
+        """Undo the trials since the last :meth:`restore` or :meth:`undo` (the source unchanged
+        since that restore): copy back the blocks they wrote, and the cell totals."""
+        self.map.copy_blocks(self.source.occupancy, self.map.take_journal())
+        self._restore_totals()
+
+    def _restore_totals(self) -> None:
         for name in ("sums", "outside", "crossed"):
             np.copyto(getattr(self.tally, name), getattr(self.source.tally, name))
 

@@ -116,6 +116,7 @@ def insert_scan(
     cells,
     log,
     dirty,
+    written,
     columns,
 ):
     """Insert one scan into tiled log-odds storage with OctoMap's ``insertPointCloud`` semantics.
@@ -153,6 +154,8 @@ def insert_scan(
             cell in the (cells,) int32 ``first_misses`` instead (empty: log it too).
         dirty: (bricks,) bool: set for each brick (block of the store) written; the voxels of a
             brick not set are all unknown (0).
+        written: (bricks,) bool: also set for each brick written (``dirty`` itself, or a journal
+            of the bricks this scan and others since its reset wrote).
         columns: :meth:`ColumnCounts.kernel_args <nbv_gym.mapping.columns.ColumnCounts>`: the
             per-column counts of known and occupied voxels in the navigation bands to keep up
             to date (``NO_COLUMNS``: empty bands, nothing counted).
@@ -225,6 +228,7 @@ def insert_scan(
                 if not (known and new == old):
                     store[i] = stored(new)
                     dirty[i >> 10] = True
+                    written[i >> 10] = True
                     in_known = not known and known_first <= cz < known_end
                     in_occupied = occupied_first <= cz < occupied_end
                     column = col_x[cx] + col_y[cy] if in_known or in_occupied else -1

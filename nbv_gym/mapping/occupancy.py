@@ -384,6 +384,18 @@ class OccupancyMap:
         )  # fmt: skip
         return out
 
+    def cells_reaching(self, grid: GridSpec, cells: np.ndarray, logodds: float) -> np.ndarray:
+        """(k,) bool: whether each of the (k, 3) ``cells`` of a coarse aligned ``grid`` holds a
+        known voxel whose log-odds is ≥ ``logodds`` (compared in float32) — ``(logodds_blocks(grid,
+        cells) >= logodds).any()`` per cell, stopping at a cell's first such voxel."""
+        offset, cells, _ = self._block_output(grid, cells, np.float32, allocate=False)
+        out = np.zeros(len(cells), bool)
+        factor = int(round(grid.res / self.grid.res))
+        _reaching(
+            self._store, *self._offsets, self._dims, offset, cells, factor, np.float32(logodds), out
+        )
+        return out
+
     def _blocks(self, grid: GridSpec, cells: np.ndarray, as_probability: bool) -> np.ndarray:
         offset, cells, out = self._block_output(grid, cells, np.float32)
         _gather_blocks(self._store, *self._offsets, self._dims, offset, cells, out)
@@ -391,16 +403,17 @@ class OccupancyMap:
             probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
         return out
 
-    def _block_output(self, grid: GridSpec, cells: np.ndarray, dtype) -> tuple:
+    def _block_output(self, grid: GridSpec, cells: np.ndarray, dtype, allocate=True) -> tuple:
         """The first voxel of ``grid``, its (k, 3) int64 ``cells`` and an empty (k, f, f, f)
-        ``dtype`` array for their voxels; ConfigError unless ``grid`` is aligned to the map."""
+        ``dtype`` array for their voxels (None unless ``allocate``); ConfigError unless ``grid``
+        is aligned to the map."""
         factor = grid.res / self.grid.res
         if not _is_whole(factor):
             raise ConfigError(f"grid cells of {grid.res} m are not a whole number of voxels")
         offset = self._voxel_offset(GridSpec(grid.origin, self.grid.res, grid.shape))
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
         f = int(round(factor))
-        return offset, cells, np.empty((len(cells), f, f, f), dtype)
+        return offset, cells, np.empty((len(cells), f, f, f), dtype) if allocate else None
 
     def probability(self, grid: GridSpec) -> np.ndarray:
         """float32 occupancy probability of ``grid.shape``; 0.5 where unknown or outside the map.
@@ -667,6 +680,30 @@ def _gather_blocks(store, x_offset, y_offset, z_offset, dims, offset, cells, out
                     value = store[column + z_offset[z0 + d]]
                     if is_known(value):
                         out[c, a, b, d] = value if value != KNOWN_ZERO else np.float32(0.0)
+
+
+@njit(cache=True)
+def _reaching(store, x_offset, y_offset, z_offset, dims, offset, cells, f, logodds, out):
+    """Set ``out[c]`` iff coarse cell ``cells[c]`` (``f`` voxels a side) holds a known voxel
+    of log-odds ≥ ``logodds`` (float32; :data:`KNOWN_ZERO` read as 0)."""
+    nx, ny, nz = dims[2], dims[3], dims[4]
+    zero = np.float32(0.0)
+    for c in range(cells.shape[0]):
+        x0 = offset[0] + cells[c, 0] * f
+        y0 = offset[1] + cells[c, 1] * f
+        z0 = offset[2] + cells[c, 2] * f
+        for a in range(max(0, -x0), min(f, nx - x0)):
+            for b in range(max(0, -y0), min(f, ny - y0)):
+                column = x_offset[x0 + a] + y_offset[y0 + b]
+                for d in range(max(0, -z0), min(f, nz - z0)):
+                    value = store[column + z_offset[z0 + d]]
+                    if is_known(value) and (zero if value == KNOWN_ZERO else value) >= logodds:
+                        out[c] = True
+                        break
+                if out[c]:
+                    break
+            if out[c]:
+                break
 
 
 @njit(cache=True)

@@ -42,7 +42,13 @@ from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.mapping.statistics import ViewpointStatistics, spherical_variance
 from nbv_gym.nbv.config import NbvConfig, NbvSensor
-from nbv_gym.nbv.visibility import credited_rays, occluder_cells, sight_lines
+from nbv_gym.nbv.visibility import (
+    credited_rays,
+    credited_surface_rays,
+    occluder_cells,
+    sight_lines,
+    surface_tables,
+)
 
 #: The gain layers, in the order of the kernel's output columns.
 GAIN_LAYERS: tuple[str, ...] = ("gain_nobs", "gain_rmin", "gain_nomega", "gain_sigma")
@@ -149,9 +155,10 @@ def predict_gains_arrays(
     occluding = np.asarray(_checked(occluding, grid.shape, "occluding"), bool)
     wanted = np.array([name in layers for name in GAIN_LAYERS])
     sums, n_visible = _gains_kernel(
-        candidates, model.model == "physical", occluder_cells(occluding), occluding.ravel(),
-        lines.reach, nz, lines.crossing_start, lines.crossing_rays, lines.dx_start,
-        lines.dx, lines.dy, lines.k, lines.range_m, lines.unit, lines.azimuth, lines.aimed,
+        candidates, model.model == "physical", occluder_cells(occluding),
+        surface_tables(lines, occluding), lines.reach, nz, lines.crossing_start,
+        lines.crossing_rays, lines.dx_start, lines.dx, lines.dy, lines.k, lines.range_m,
+        lines.unit, lines.azimuth, lines.aimed, lines.ray_of, lines.forward_start,
         lines.through_start, lines.through_rays, nx, ny, table, robot_azimuth, robot_on_axis,
         sensor.n_sectors, _log_floor_table(config.gain_floor), config.gain_floor,
         _first_sigma(config), wanted,
@@ -360,9 +367,10 @@ def _popcount64(v):
 
 @njit(cache=True)
 def _gains_kernel(
-    candidates, physical, occluders, occluding, reach, nz, crossing_start, crossing_rays,
-    dx_start, dx, dy, k, range_m, unit, azimuth, aimed, through_start, through_rays,
-    nx, ny, table, robot_azimuth, robot_on_axis, n_sectors, ln_count, floor, first_sigma, wanted,
+    candidates, physical, occluders, surface, reach, nz, crossing_start, crossing_rays,
+    dx_start, dx, dy, k, range_m, unit, azimuth, aimed, ray_of, forward_start, through_start,
+    through_rays, nx, ny, table, robot_azimuth, robot_on_axis, n_sectors, ln_count, floor,
+    first_sigma, wanted,
 ):  # fmt: skip
     """(m, 4) float64 summed gains per candidate (columns as :data:`GAIN_LAYERS`) and (m,) int64
     number of credited cells."""
@@ -370,16 +378,19 @@ def _gains_kernel(
     sums = np.zeros((m, 4))
     n_visible = np.zeros(m, np.int64)
     stamps = np.full(len(dx), -1, np.int64)
-    visits = np.full(nx * ny * nz, -1, np.int64)
+    visits = surface.visits.copy()
     rays = np.empty(len(dx), np.int64)
     want_nobs, want_rmin, want_nomega, want_sigma = wanted[0], wanted[1], wanted[2], wanted[3]
     # σ_θ's gain of a first observation: â = first_sigma (0, authors 0.5)
     first_gain = math.log(first_sigma / floor) if first_sigma > floor else 0.0
     for c in range(m):
         ci, cj = candidates[c, 0], candidates[c, 1]
-        n = credited_rays(ci, cj, physical, occluders, occluding, reach, nz, crossing_start,
-                          crossing_rays, dx_start, dx, dy, k, aimed, through_start, through_rays,
-                          nx, ny, stamps, visits, c, rays)  # fmt: skip
+        if physical:
+            n = credited_surface_rays(ci, cj, surface, nx, ny, nz, ray_of, aimed, forward_start,
+                                      through_start, through_rays, visits, c, rays)  # fmt: skip
+        else:
+            n = credited_rays(ci, cj, occluders, reach, nz, crossing_start, crossing_rays,
+                              dx_start, dy, aimed, nx, ny, stamps, c, rays)  # fmt: skip
         g_nobs = g_rmin = g_nomega = g_sigma = 0.0
         for q in range(n):
             r = rays[q]

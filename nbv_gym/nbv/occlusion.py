@@ -13,9 +13,6 @@ from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.mapping.occupancy import OccupancyMap, logit
 
-#: Cells of G whose voxels are read at once (4 kB of float32 each).
-CHUNK_CELLS = 4096
-
 
 class OcclusionGrid:
     """(nx, ny, nz) bool mask over G: a cell occludes iff it holds a voxel with p ≥ the threshold.
@@ -55,19 +52,13 @@ class OcclusionGrid:
         """Recompute the ``touched`` (nx, ny, nz) bool cells from ``occupancy_map`` (all cells when
         None); returns the number of cells recomputed.
 
-        Reads only the touched cells' voxels (``OccupancyMap.logodds_blocks``), in chunks of
-        :data:`CHUNK_CELLS` cells.
+        Reads only the touched cells' voxels, each up to its first occluding one
+        (``OccupancyMap.cells_reaching``; unknown voxels never occlude).
         """
         touched = np.ones(self.grid.shape, bool) if touched is None else np.asarray(touched, bool)
         if touched.shape != self.grid.shape:
             raise NbvGymError(f"touched must have G's shape {self.grid.shape}, got {touched.shape}")
         cells = np.argwhere(touched)
-        for start in range(0, len(cells), CHUNK_CELLS):
-            self._update_cells(occupancy_map, cells[start : start + CHUNK_CELLS])
-        return int(touched.sum())
-
-    def _update_cells(self, occupancy_map: OccupancyMap, cells: np.ndarray) -> None:
-        """Recompute the (k, 3) ``cells`` of G from their voxels."""
-        blocks = occupancy_map.logodds_blocks(self.grid, cells)
-        occluding = (blocks.reshape(len(cells), -1) >= self.threshold_logodds).any(axis=1)
-        self._mask[tuple(cells.T)] = occluding  # NaN (unknown) compares False: never occludes
+        reaching = occupancy_map.cells_reaching(self.grid, cells, self.threshold_logodds)
+        self._mask[tuple(cells.T)] = reaching
+        return len(cells)

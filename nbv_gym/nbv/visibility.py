@@ -29,7 +29,11 @@ sight line crosses depend only on the offset (dx, dy) of the target column and t
 the crossings are computed once per grid geometry (:func:`sight_lines`, cached) with an exact 3D
 DDA, and stored inverted — for each relative cell, the sight lines that cross it. A candidate's
 occluded sight lines are then the union of those of the occluding cells near it, which costs a few
-operations per occluding cell instead of a ray walk per target cell.
+operations per occluding cell instead of a ray walk per target cell. Under ``physical`` only the
+lines that end on an occluding cell can credit anything, so that kernel
+(:func:`credited_surface_rays`) visits just the occluding cells within reach, in sight-line
+order, tests each one's line against the occluding cells it crosses, and reads the cells of G
+padded by the reach (:class:`SurfaceTables`), so that no crossed cell needs a bounds check.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -130,6 +135,10 @@ class SightLines:
             ``((cdx + reach) · (2 · reach + 1) + cdy + reach) · nz + ck``.
         crossing_rays: int64 ids of the rays crossing each relative cell (strictly between the
             sensor's cell and the target cell).
+        forward_start, forward_cells: CSR lists, per sight line, of the (dx, dy, k) relative
+            cells it crosses (the same crossings, per line: (n_crossings, 3) int64).
+        ray_of: (width · width · nz,) int64 the sight line of each relative cell, −1 where none
+            (outside the range window).
     """
 
     reach: int
@@ -146,6 +155,9 @@ class SightLines:
     dx_start: np.ndarray
     crossing_start: np.ndarray
     crossing_rays: np.ndarray
+    forward_start: np.ndarray
+    forward_cells: np.ndarray
+    ray_of: np.ndarray
 
     @property
     def n_rays(self) -> int:
@@ -199,27 +211,31 @@ def _sight_lines(
     order = np.argsort(offsets, kind="stable")
     counts = np.bincount(offsets, minlength=width * width * nz)
     crossing_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    crossing_rays = rays[order].astype(np.int64)
+    forward_start = np.concatenate([[0], np.cumsum(np.bincount(rays, minlength=len(dx)))])
+    cell, ck = np.divmod(offsets, nz)  # rays ascend: the pairs are already per sight line
+    cdx, cdy = np.divmod(cell, width)
+    forward_cells = np.column_stack([cdx - reach, cdy - reach, ck]).astype(np.int64)
     dx_start = np.searchsorted(dx, np.arange(-reach, reach + 2)).astype(np.int64)
+    ray_of = np.full(width * width * nz, -1, np.int64)
+    ray_of[((dx + reach) * width + dy + reach) * nz + k] = np.arange(len(dx))
     if fan:
         offsets, rays = _all_crossings(dx, dy, k, zs, nz, reach, FAN)
-    through_start, through_rays = _through_lists(offsets, rays, dx, dy, k, reach, nz)
+    through_start, through_rays = _through_lists(offsets, rays, ray_of, len(dx))
     return SightLines(
         reach, nz, dx.astype(np.int64), dy.astype(np.int64), k.astype(np.int64), range_m, unit,
-        azimuth, aimed, through_start, through_rays, dx_start, crossing_start,
-        rays[order].astype(np.int64),
+        azimuth, aimed, through_start, through_rays, dx_start, crossing_start, crossing_rays,
+        forward_start.astype(np.int64), forward_cells, ray_of,
     )  # fmt: skip
 
 
-def _through_lists(offsets, rays, dx, dy, k, reach, nz) -> tuple[np.ndarray, np.ndarray]:
+def _through_lists(offsets, rays, ray_of, n_rays) -> tuple[np.ndarray, np.ndarray]:
     """CSR (start (n + 1,), rays) of the in-window sight lines of the cells each sight line
-    crosses: a crossed relative cell is looked up among the sight lines' targets."""
-    width = 2 * reach + 1
-    ray_of = np.full(width * width * nz, -1, np.int64)
-    ray_of[((dx + reach) * width + dy + reach) * nz + k] = np.arange(len(dx))
+    crosses: a crossed relative cell is looked up among the sight lines' targets (``ray_of``)."""
     crossed = ray_of[offsets]
     keep = crossed >= 0
     pairs = np.unique(np.column_stack([rays[keep], crossed[keep]]), axis=0)  # sorted by ray
-    counts = np.bincount(pairs[:, 0], minlength=len(dx))
+    counts = np.bincount(pairs[:, 0], minlength=n_rays)
     return np.concatenate([[0], np.cumsum(counts)]).astype(np.int64), pairs[:, 1].copy()
 
 
@@ -314,44 +330,118 @@ def mark_occluded(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, s
 
 
 @njit(cache=True)
-def credited_rays(ci, cj, physical, occluders, occluding, reach, nz, crossing_start,
-                  crossing_rays, dx_start, dx, dy, k, aimed, through_start, through_rays, nx, ny,
-                  stamps, visits, stamp, out):  # fmt: skip
-    """Write to ``out`` the sight lines (one per cell, its first) of the cells the candidate
-    column ``(ci, cj)`` is credited with (module docstring); return how many.
-
-    ``occluding`` (nx · ny · nz,) bool flat; ``stamps`` (n_rays,) and ``visits``
-    (nx · ny · nz,) int64 scratch arrays holding no ``stamp`` yet (a new stamp per candidate).
-    """
+def credited_rays(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, dx_start, dy,
+                  aimed, nx, ny, stamps, stamp, out):  # fmt: skip
+    """Write to ``out`` the clear, aimed sight lines of the candidate column ``(ci, cj)`` — the
+    cells it is credited with under ``authors``, ``sphere`` and ``fov`` (module docstring); return
+    how many. ``stamps`` (n_rays,) int64 scratch holding no ``stamp`` yet (a new stamp per
+    candidate)."""
     mark_occluded(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, stamps, stamp)
     n = 0
     for a in range(max(-reach, -ci), min(reach, nx - 1 - ci) + 1):
-        i = ci + a
         for r in range(dx_start[a + reach], dx_start[a + reach + 1]):
             j = cj + dy[r]
-            if j < 0 or j >= ny or stamps[r] == stamp or not aimed[r]:
-                continue
-            cell = (i * ny + j) * nz + k[r]
-            if not physical:
-                visits[cell] = stamp
+            if 0 <= j < ny and stamps[r] != stamp and aimed[r]:
                 out[n] = r
                 n += 1
+    return n
+
+
+class SurfaceTables(NamedTuple):
+    """The ``physical`` kernel's view of one occlusion mask (:func:`surface_tables`), over G
+    padded by the sight lines' reach R on each side in x and y, cells flat in C order.
+
+    Attributes:
+        reach: R, cells.
+        stride: ny + 2R, the padded grid's y size.
+        occluding: ((nx + 2R) · (ny + 2R) · nz,) bool, False in the padding.
+        visits: same size, int64: −1 in G, the largest int64 in the padding (a crossed cell
+            outside G counts as visited: never credited).
+        column_start: (nx · ny + 1,) int64 CSR of the occluding cells by column (i · ny + j).
+        occluder_j, occluder_k: (q,) int64 the occluding cells' j and k, sorted by (i, j, k).
+        forward_offsets: per crossing of :attr:`SightLines.forward_cells`, its padded offset.
+        through_offsets: per entry of :attr:`SightLines.through_rays`, its target's padded offset.
+    """
+
+    reach: int
+    stride: int
+    occluding: np.ndarray
+    visits: np.ndarray
+    column_start: np.ndarray
+    occluder_j: np.ndarray
+    occluder_k: np.ndarray
+    forward_offsets: np.ndarray
+    through_offsets: np.ndarray
+
+
+def surface_tables(lines: SightLines, occluding: np.ndarray) -> SurfaceTables:
+    """The :class:`SurfaceTables` of the (nx, ny, nz) bool ``occluding`` cells for ``lines``."""
+    occluding = np.asarray(occluding, bool)
+    nx, ny, nz = occluding.shape
+    reach = lines.reach
+    padded = np.zeros((nx + 2 * reach, ny + 2 * reach, nz), bool)
+    padded[reach : reach + nx, reach : reach + ny] = occluding
+    visits = np.full(padded.shape, np.iinfo(np.int64).max, np.int64)
+    visits[reach : reach + nx, reach : reach + ny] = -1
+    cells = occluder_cells(occluding)
+    columns = np.bincount(cells[:, 0] * ny + cells[:, 1], minlength=nx * ny)
+    stride = ny + 2 * reach
+
+    def offsets(dx: np.ndarray, dy: np.ndarray, k: np.ndarray) -> np.ndarray:
+        return ((dx * stride + dy) * nz + k).astype(np.int64)
+
+    forward = lines.forward_cells
+    through = lines.through_rays
+    return SurfaceTables(
+        reach, stride, padded.ravel(), visits.ravel(),
+        np.concatenate([[0], np.cumsum(columns)]).astype(np.int64),
+        cells[:, 1].copy(), cells[:, 2].copy(),
+        offsets(forward[:, 0], forward[:, 1], forward[:, 2]),
+        offsets(lines.dx[through], lines.dy[through], lines.k[through]),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def credited_surface_rays(ci, cj, tables, nx, ny, nz, ray_of, aimed, forward_start,
+                          through_start, through_rays, visits, stamp, out):  # fmt: skip
+    """Write to ``out`` the sight lines (one per cell, its first) of the cells the candidate
+    column ``(ci, cj)`` is credited with under ``physical`` (module docstring); return how many.
+
+    Visits the occluding cells within reach in sight-line order (by dx, dy, k), so the lines and
+    their order are those of a pass over every sight line. ``tables`` is a
+    :class:`SurfaceTables`; ``visits`` its :attr:`~SurfaceTables.visits` (or a copy), holding no
+    stamp ≥ ``stamp`` in G yet (stamps grow from candidate to candidate).
+    """
+    reach, stride = tables.reach, tables.stride
+    width = 2 * reach + 1
+    base = ((ci + reach) * stride + cj + reach) * nz  # the candidate's column in the padding
+    j_lo, j_hi = max(cj - reach, 0), min(cj + reach, ny - 1)
+    n = 0
+    for i in range(max(ci - reach, 0), min(ci + reach, nx - 1) + 1):
+        a = i - ci
+        for o in range(tables.column_start[i * ny + j_lo], tables.column_start[i * ny + j_hi + 1]):
+            b, ck = tables.occluder_j[o] - cj, tables.occluder_k[o]
+            r = ray_of[((a + reach) * width + b + reach) * nz + ck]
+            if r < 0 or not aimed[r]:
                 continue
-            if not occluding[cell]:
-                continue  # the ray returns from the ground or from nowhere: nothing is updated
-            if visits[cell] != stamp:
+            hidden = False
+            for p in range(forward_start[r], forward_start[r + 1]):
+                if tables.occluding[base + tables.forward_offsets[p]]:
+                    hidden = True
+                    break
+            if hidden:
+                continue
+            cell = base + (a * stride + b) * nz + ck
+            if visits[cell] < stamp:
                 visits[cell] = stamp
                 out[n] = r
                 n += 1
             for p in range(through_start[r], through_start[r + 1]):
-                q = through_rays[p]
-                qi, qj = ci + dx[q], cj + dy[q]
-                if 0 <= qi < nx and 0 <= qj < ny:
-                    crossed = (qi * ny + qj) * nz + k[q]
-                    if visits[crossed] != stamp:
-                        visits[crossed] = stamp
-                        out[n] = q
-                        n += 1
+                crossed = base + tables.through_offsets[p]
+                if visits[crossed] < stamp:
+                    visits[crossed] = stamp
+                    out[n] = through_rays[p]
+                    n += 1
     return n
 
 
@@ -364,16 +454,22 @@ def credited_cells(
     occluding = np.asarray(occluding, bool)
     nx, ny, nz = grid.shape
     rays = np.empty(lines.n_rays, np.int64)
-    n = credited_rays(
-        int(column[0]), int(column[1]), model.code == _PHYSICAL, occluder_cells(occluding),
-        occluding.ravel(), lines.reach, nz, lines.crossing_start, lines.crossing_rays,
-        lines.dx_start, lines.dx, lines.dy, lines.k, lines.aimed, lines.through_start,
-        lines.through_rays, nx, ny, np.full(lines.n_rays, -1, np.int64),
-        np.full(nx * ny * nz, -1, np.int64), 0, rays,
-    )  # fmt: skip
+    ci, cj = int(column[0]), int(column[1])
+    if model.code == _PHYSICAL:
+        tables = surface_tables(lines, occluding)
+        n = credited_surface_rays(
+            ci, cj, tables, nx, ny, nz, lines.ray_of, lines.aimed, lines.forward_start,
+            lines.through_start, lines.through_rays, tables.visits, 0, rays,
+        )  # fmt: skip
+    else:
+        n = credited_rays(
+            ci, cj, occluder_cells(occluding), lines.reach, nz, lines.crossing_start,
+            lines.crossing_rays, lines.dx_start, lines.dy, lines.aimed, nx, ny,
+            np.full(lines.n_rays, -1, np.int64), 0, rays,
+        )  # fmt: skip
     out = np.zeros(grid.shape, bool)
     rays = rays[:n]
-    out[column[0] + lines.dx[rays], column[1] + lines.dy[rays], lines.k[rays]] = True
+    out[ci + lines.dx[rays], cj + lines.dy[rays], lines.k[rays]] = True
     return out
 
 

@@ -37,12 +37,14 @@ from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.mapping.occupancy import OccupancyMap
 from nbv_gym.nbv.config import NbvSensor
-from nbv_gym.nbv.occlusion import CHUNK_CELLS, OcclusionGrid
+from nbv_gym.nbv.occlusion import OcclusionGrid
 from nbv_gym.nbv.visibility import SightModel, credited_rays, occluder_cells, sight_lines
 
 #: The volumetric gain layers, in the order of :attr:`VoxelTotals.table`'s columns.
 VOLUMETRIC_LAYERS: tuple[str, ...] = ("gain_unknown", "gain_entropy")
 
+#: Cells of G whose voxels are read at once (4 kB of float32 each).
+CHUNK_CELLS = 4096
 #: A cell blocks the sight lines iff it holds a voxel with p ≥ this (the map's occupied threshold).
 BLOCKING_PROBABILITY = 0.5
 
@@ -125,9 +127,9 @@ def volumetric_gains(
     cells = np.argwhere(candidates).astype(np.int64)
     lines = sight_lines(grid, sight_model(sensor))
     sums = _sums_kernel(
-        cells, occluder_cells(blocking), blocking.ravel(), lines.reach, nz, lines.crossing_start,
-        lines.crossing_rays, lines.dx_start, lines.dx, lines.dy, lines.k, lines.aimed,
-        lines.through_start, lines.through_rays, nx, ny, table,
+        cells, occluder_cells(blocking), lines.reach, nz, lines.crossing_start,
+        lines.crossing_rays, lines.dx_start, lines.dx, lines.dy, lines.k, lines.aimed, nx, ny,
+        table,
     )  # fmt: skip
     out = {}
     for column, name in enumerate(VOLUMETRIC_LAYERS):
@@ -138,21 +140,18 @@ def volumetric_gains(
 
 
 @njit(cache=True)
-def _sums_kernel(candidates, occluders, occluding, reach, nz, crossing_start, crossing_rays,
-                 dx_start, dx, dy, k, aimed, through_start, through_rays, nx, ny,
-                 table):  # fmt: skip
+def _sums_kernel(candidates, occluders, reach, nz, crossing_start, crossing_rays, dx_start, dx,
+                 dy, k, aimed, nx, ny, table):  # fmt: skip
     """(m, v) float64: per candidate, the sum of the (n_cells, v) ``table`` rows of the cells it
     sees (:func:`~nbv_gym.nbv.visibility.credited_rays`, ``fov`` sight lines)."""
     m, v = candidates.shape[0], table.shape[1]
     sums = np.zeros((m, v))
     stamps = np.full(len(dx), -1, np.int64)
-    visits = np.full(nx * ny * nz, -1, np.int64)
     rays = np.empty(len(dx), np.int64)
     for c in range(m):
         ci, cj = candidates[c, 0], candidates[c, 1]
-        n = credited_rays(ci, cj, False, occluders, occluding, reach, nz, crossing_start,
-                          crossing_rays, dx_start, dx, dy, k, aimed, through_start, through_rays,
-                          nx, ny, stamps, visits, c, rays)  # fmt: skip
+        n = credited_rays(ci, cj, occluders, reach, nz, crossing_start, crossing_rays, dx_start,
+                          dy, aimed, nx, ny, stamps, c, rays)  # fmt: skip
         for q in range(n):
             r = rays[q]
             cell = ((ci + dx[r]) * ny + cj + dy[r]) * nz + k[r]

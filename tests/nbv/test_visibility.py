@@ -118,6 +118,53 @@ def test_visibility_equals_an_exact_brute_force(seed):
     assert 0 < got.sum() < want.size  # the case is not trivial
 
 
+def brute_force_physical(grid, occluding, column, model):
+    """The ``physical`` model by brute force: every occluding cell in the range window and the
+    field of view whose centre line crosses no other occluding cell (but the sensor's), and every
+    cell in the range window that a segment from the sensor to that cell's centre or to a point a
+    quarter cell from it along a diagonal passes through (the sensor's cell excepted)."""
+    sensor = np.array([*(grid.low[:2] + (np.asarray(column) + 0.5) * grid.res), 0.42])
+    sensor_cell = tuple(grid.index(sensor[None])[0])
+    clear = brute_force_visible(grid, occluding, column, 0.42, model.min_range_m, 9e9)
+    corners = [0.5 + 0.25 * np.array(d) for d in itertools.product((-1, 1), repeat=3)]
+    out = np.zeros(grid.shape, bool)
+    for surface in map(tuple, np.argwhere(occluding & clear)):
+        centre = grid.centres(np.array([surface]))[0]
+        offset = centre - sensor
+        elevation = np.arcsin(offset[2] / np.linalg.norm(offset))
+        in_range = model.min_range_m <= np.linalg.norm(offset) < model.max_range_m
+        if not in_range or not model.elevation_min_rad <= elevation <= model.elevation_max_rad:
+            continue
+        out[surface] = True
+        for end in [np.full(3, 0.5), *corners]:
+            point = grid.low + (np.array(surface) + end) * grid.res
+            for cell in itertools.product(*(range(s) for s in grid.shape)):
+                distance = np.linalg.norm(grid.centres(np.array([cell]))[0] - sensor)
+                if cell in (surface, sensor_cell) or not (
+                    model.min_range_m <= distance < model.max_range_m
+                ):
+                    continue
+                low = grid.low + np.array(cell) * grid.res
+                if segment_crosses_open_box(sensor, point, low, low + grid.res):
+                    out[cell] = True
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_physical_visibility_equals_an_exact_brute_force(seed):
+    # Surfaces hide one another: a line ending on a surface behind another credits nothing.
+    grid = GridSpec((-4.0, -3.0, 0.2), 1.0, (9, 8, 4))
+    rng = np.random.default_rng(seed)
+    occluding = rng.random(grid.shape) < 0.12
+    column = (int(rng.integers(9)), int(rng.integers(8)))
+    model = SightModel("physical", 0.42, np.sqrt(3), 7.0, -0.6, 0.6)
+    got = credited_cells(occluding, column, grid, model)
+    want = brute_force_physical(grid, occluding, column, model)
+    assert np.array_equal(got, want)
+    hidden = occluding & ~brute_force_visible(grid, occluding, column, 0.42, np.sqrt(3), 7.0)
+    assert got.sum() > 0 and hidden.any()  # the case is not trivial
+
+
 def test_sight_lines_are_sorted_by_dx_and_in_range():
     grid = GridSpec((-30.0, -30.0, 0.2), 1.0, (60, 60, 6))
     lines = sight_lines(grid, SightModel("sphere", 0.42, np.sqrt(3), 20.0))

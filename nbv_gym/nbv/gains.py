@@ -158,8 +158,7 @@ def predict_gains_arrays(
         candidates, model.model == "physical", occluder_cells(occluding),
         surface_tables(lines, occluding), lines.reach, nz, lines.crossing_start,
         lines.crossing_rays, lines.dx_start, lines.dx, lines.dy, lines.k, lines.range_m,
-        lines.unit, lines.azimuth, lines.aimed, lines.ray_of, lines.forward_start,
-        lines.through_start, lines.through_rays, nx, ny, table, robot_azimuth, robot_on_axis,
+        lines.unit, lines.azimuth, lines.aimed, nx, ny, table, robot_azimuth, robot_on_axis,
         sensor.n_sectors, _log_floor_table(config.gain_floor), config.gain_floor,
         _first_sigma(config), wanted,
     )  # fmt: skip
@@ -368,9 +367,8 @@ def _popcount64(v):
 @njit(cache=True)
 def _gains_kernel(
     candidates, physical, occluders, surface, reach, nz, crossing_start, crossing_rays,
-    dx_start, dx, dy, k, range_m, unit, azimuth, aimed, ray_of, forward_start, through_start,
-    through_rays, nx, ny, table, robot_azimuth, robot_on_axis, n_sectors, ln_count, floor,
-    first_sigma, wanted,
+    dx_start, dx, dy, k, range_m, unit, azimuth, aimed, nx, ny, table, robot_azimuth,
+    robot_on_axis, n_sectors, ln_count, floor, first_sigma, wanted,
 ):  # fmt: skip
     """(m, 4) float64 summed gains per candidate (columns as :data:`GAIN_LAYERS`) and (m,) int64
     number of credited cells."""
@@ -386,8 +384,7 @@ def _gains_kernel(
     for c in range(m):
         ci, cj = candidates[c, 0], candidates[c, 1]
         if physical:
-            n = credited_surface_rays(ci, cj, surface, nx, ny, nz, ray_of, aimed, forward_start,
-                                      through_start, through_rays, visits, c, rays)  # fmt: skip
+            n = credited_surface_rays(ci, cj, surface, nx, ny, nz, visits, c, rays)
         else:
             n = credited_rays(ci, cj, occluders, reach, nz, crossing_start, crossing_rays,
                               dx_start, dy, aimed, nx, ny, stamps, c, rays)  # fmt: skip

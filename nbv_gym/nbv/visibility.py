@@ -361,6 +361,7 @@ class SurfaceTables(NamedTuple):
         occluder_j, occluder_k: (q,) int64 the occluding cells' j and k, sorted by (i, j, k).
         forward_offsets: per crossing of :attr:`SightLines.forward_cells`, its padded offset.
         through_offsets: per entry of :attr:`SightLines.through_rays`, its target's padded offset.
+        ray_of, aimed, forward_start, through_start, through_rays: the :class:`SightLines`'.
     """
 
     reach: int
@@ -372,6 +373,11 @@ class SurfaceTables(NamedTuple):
     occluder_k: np.ndarray
     forward_offsets: np.ndarray
     through_offsets: np.ndarray
+    ray_of: np.ndarray
+    aimed: np.ndarray
+    forward_start: np.ndarray
+    through_start: np.ndarray
+    through_rays: np.ndarray
 
 
 def surface_tables(lines: SightLines, occluding: np.ndarray) -> SurfaceTables:
@@ -398,12 +404,12 @@ def surface_tables(lines: SightLines, occluding: np.ndarray) -> SurfaceTables:
         cells[:, 1].copy(), cells[:, 2].copy(),
         offsets(forward[:, 0], forward[:, 1], forward[:, 2]),
         offsets(lines.dx[through], lines.dy[through], lines.k[through]),
+        lines.ray_of, lines.aimed, lines.forward_start, lines.through_start, through,
     )  # fmt: skip
 
 
 @njit(cache=True)
-def credited_surface_rays(ci, cj, tables, nx, ny, nz, ray_of, aimed, forward_start,
-                          through_start, through_rays, visits, stamp, out):  # fmt: skip
+def credited_surface_rays(ci, cj, tables, nx, ny, nz, visits, stamp, out):
     """Write to ``out`` the sight lines (one per cell, its first) of the cells the candidate
     column ``(ci, cj)`` is credited with under ``physical`` (module docstring); return how many.
 
@@ -412,7 +418,8 @@ def credited_surface_rays(ci, cj, tables, nx, ny, nz, ray_of, aimed, forward_sta
     :class:`SurfaceTables`; ``visits`` its :attr:`~SurfaceTables.visits` (or a copy), holding no
     stamp ≥ ``stamp`` in G yet (stamps grow from candidate to candidate).
     """
-    reach, stride = tables.reach, tables.stride
+    reach, stride, ray_of = tables.reach, tables.stride, tables.ray_of
+    forward_start, through_start = tables.forward_start, tables.through_start
     width = 2 * reach + 1
     base = ((ci + reach) * stride + cj + reach) * nz  # the candidate's column in the padding
     j_lo, j_hi = max(cj - reach, 0), min(cj + reach, ny - 1)
@@ -422,7 +429,7 @@ def credited_surface_rays(ci, cj, tables, nx, ny, nz, ray_of, aimed, forward_sta
         for o in range(tables.column_start[i * ny + j_lo], tables.column_start[i * ny + j_hi + 1]):
             b, ck = tables.occluder_j[o] - cj, tables.occluder_k[o]
             r = ray_of[((a + reach) * width + b + reach) * nz + ck]
-            if r < 0 or not aimed[r]:
+            if r < 0 or not tables.aimed[r]:
                 continue
             hidden = False
             for p in range(forward_start[r], forward_start[r + 1]):
@@ -440,7 +447,7 @@ def credited_surface_rays(ci, cj, tables, nx, ny, nz, ray_of, aimed, forward_sta
                 crossed = base + tables.through_offsets[p]
                 if visits[crossed] < stamp:
                     visits[crossed] = stamp
-                    out[n] = through_rays[p]
+                    out[n] = tables.through_rays[p]
                     n += 1
     return n
 
@@ -457,10 +464,7 @@ def credited_cells(
     ci, cj = int(column[0]), int(column[1])
     if model.code == _PHYSICAL:
         tables = surface_tables(lines, occluding)
-        n = credited_surface_rays(
-            ci, cj, tables, nx, ny, nz, lines.ray_of, lines.aimed, lines.forward_start,
-            lines.through_start, lines.through_rays, tables.visits, 0, rays,
-        )  # fmt: skip
+        n = credited_surface_rays(ci, cj, tables, nx, ny, nz, tables.visits, 0, rays)
     else:
         n = credited_rays(
             ci, cj, occluder_cells(occluding), lines.reach, nz, lines.crossing_start,

@@ -36,7 +36,7 @@ def sweep(
         str | None,
         typer.Option(
             help="Run on the Dask cluster at this address (tcp://host:8786; tls://host:8786 with "
-            "Dask's TLS settings, see the README's Security and trust), or 'local' for a new "
+            "Dask's TLS settings, see docs/security.md), or 'local' for a new "
             "Dask LocalCluster. Needs nbv-gym[dist]."
         ),
     ] = None,

@@ -78,6 +78,6 @@ def client_security(scheduler: str):
             problem = "is not set" if not value else f"names {value!r}, which does not exist"
             raise ClusterError(
                 f"--scheduler {scheduler} needs TLS: Dask's setting {key} {problem}. Set it in "
-                f"Dask's config or as ${variable} (see README, Security and trust)."
+                f"Dask's config or as ${variable} (see docs/security.md)."
             )
     return Security(require_encryption=True)

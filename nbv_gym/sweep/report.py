@@ -211,7 +211,7 @@ def _fig2_section(ok, data: Results, out: Path) -> str:
         "mean of the runs (drawn where at least half of them reach that fraction), the band spans "
         "their min and max. One panel per asset type (harder to the right); per noise level "
         "(the paper shows noise 0) first Q_paper (eq. 3, what the paper's Fig. 2 draws), then Q "
-        "(fixed bounds, the reward). Both over the comparison volume (README, Protocol).",
+        "(fixed bounds, the reward). Both over the comparison volume (docs/protocol.md#comparison-volume).",
     ]
     for noise in sorted(ok["noise"].unique()):
         runs = ok[ok["noise"] == noise]

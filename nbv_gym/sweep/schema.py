@@ -1,5 +1,5 @@
 """The columns of a sweep's tables — ``runs.csv``, ``steps.csv``, ``cuboids.parquet`` — with their
-unit and meaning, in one place: :func:`schema_markdown` prints them (the README's table and
+unit and meaning, in one place: :func:`schema_markdown` prints them (docs/sweeps.md and
 ``nbv-gym report`` link to it) and :func:`with_column_docs` writes them into the parquet file's
 metadata (key ``nbv_gym.columns``, a JSON list of ``{name, unit, meaning}``), so the file explains
 itself. ``end_code`` sits beside ``end_reason``: a short code to group and filter by.

@@ -96,10 +96,14 @@ def test_reference_validates_and_its_aggregates_follow_from_its_runs(name):
         )
 
 
-#: Stored runs re-run here: (policy, split, world, noise, repeat).
+#: Stored runs re-run here: (policy, split, world, noise, repeat) — a frontier baseline, the
+#: statistic policies' two gain paths (the count and the spherical variance), the volumetric
+#: information gain, and the explore task.
 RERUNS = (
     ("closest-frontier", "benchmark", "pp1-cuboids", 0, 0),
     ("nbv-nobs", "benchmark", "pp1-crosses", 1, 0),
+    ("nbv-sigma", "benchmark", "pp1-helicoids", 2, 0),
+    ("ig-unknown", "benchmark", "pp1-trees", 1, 0),
     ("random-frontier", "explore", "pp1-cuboids", 2, 1),
 )
 

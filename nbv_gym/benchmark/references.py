@@ -31,10 +31,7 @@ REFERENCE_SUITE = STANDARD
 #: leaderboard names them; a test keeps this honest (no file for a pending policy, and every
 #: other shipped policy has one). Generate one with ``python -m nbv_gym.benchmark.references
 #: NAME`` and delete its entry here.
-PENDING: dict[str, str] = {
-    "oracle-greedy": "about 64 trial scans per decision: the standard suite's 360 runs take about "
-    "5 hours of CPU (3.5 s per decision on one core)",
-}
+PENDING: dict[str, str] = {}
 
 
 def shipped_policies() -> list[str]:

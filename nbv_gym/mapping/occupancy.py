@@ -377,7 +377,8 @@ class OccupancyMap:
         exceeds the threshold whose :func:`~nbv_gym.mapping.probability.logodds_bound` is
         ``bounds[s]`` ((s,) float32, s ≤ 32). The same bits as comparing
         :meth:`probability_blocks` with the thresholds, without computing a probability."""
-        offset, cells, out = self._block_output(grid, cells, np.uint32)
+        offset, cells, f = self._cell_voxels(grid, cells)
+        out = np.empty((len(cells), f, f, f), np.uint32)
         _gather_levels(
             self._store, *self._offsets, self._dims, offset, cells,
             np.asarray(bounds, np.float32), out,
@@ -388,32 +389,30 @@ class OccupancyMap:
         """(k,) bool: whether each of the (k, 3) ``cells`` of a coarse aligned ``grid`` holds a
         known voxel whose log-odds is ≥ ``logodds`` (compared in float32) — ``(logodds_blocks(grid,
         cells) >= logodds).any()`` per cell, stopping at a cell's first such voxel."""
-        offset, cells, _ = self._block_output(grid, cells, np.float32, allocate=False)
+        offset, cells, f = self._cell_voxels(grid, cells)
         out = np.zeros(len(cells), bool)
-        factor = int(round(grid.res / self.grid.res))
         _reaching(
-            self._store, *self._offsets, self._dims, offset, cells, factor, np.float32(logodds), out
+            self._store, *self._offsets, self._dims, offset, cells, f, np.float32(logodds), out
         )
         return out
 
     def _blocks(self, grid: GridSpec, cells: np.ndarray, as_probability: bool) -> np.ndarray:
-        offset, cells, out = self._block_output(grid, cells, np.float32)
+        offset, cells, f = self._cell_voxels(grid, cells)
+        out = np.empty((len(cells), f, f, f), np.float32)
         _gather_blocks(self._store, *self._offsets, self._dims, offset, cells, out)
         if as_probability:
             probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
         return out
 
-    def _block_output(self, grid: GridSpec, cells: np.ndarray, dtype, allocate=True) -> tuple:
-        """The first voxel of ``grid``, its (k, 3) int64 ``cells`` and an empty (k, f, f, f)
-        ``dtype`` array for their voxels (None unless ``allocate``); ConfigError unless ``grid``
-        is aligned to the map."""
+    def _cell_voxels(self, grid: GridSpec, cells: np.ndarray) -> tuple:
+        """The first voxel of ``grid``, its (k, 3) int64 ``cells`` and ``f``, the voxels on a
+        side of a cell; ConfigError unless ``grid`` is aligned to the map."""
         factor = grid.res / self.grid.res
         if not _is_whole(factor):
             raise ConfigError(f"grid cells of {grid.res} m are not a whole number of voxels")
         offset = self._voxel_offset(GridSpec(grid.origin, self.grid.res, grid.shape))
         cells = np.asarray(cells, dtype=np.int64).reshape(-1, 3)
-        f = int(round(factor))
-        return offset, cells, np.empty((len(cells), f, f, f), dtype) if allocate else None
+        return offset, cells, int(round(factor))
 
     def probability(self, grid: GridSpec) -> np.ndarray:
         """float32 occupancy probability of ``grid.shape``; 0.5 where unknown or outside the map.

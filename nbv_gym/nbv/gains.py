@@ -156,7 +156,7 @@ def predict_gains_arrays(
     wanted = np.array([name in layers for name in GAIN_LAYERS])
     sums, n_visible = _gains_kernel(
         candidates, model.model == "physical", occluder_cells(occluding),
-        surface_tables(lines, occluding), lines.reach, nz, lines.crossing_start,
+        surface_tables(grid, model, occluding), lines.reach, nz, lines.crossing_start,
         lines.crossing_rays, lines.dx_start, lines.dx, lines.dy, lines.k, lines.range_m,
         lines.unit, lines.azimuth, lines.aimed, nx, ny, table, robot_azimuth, robot_on_axis,
         sensor.n_sectors, _log_floor_table(config.gain_floor), config.gain_floor,

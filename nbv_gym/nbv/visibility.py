@@ -356,7 +356,7 @@ class SurfaceTables(NamedTuple):
         stride: ny + 2R, the padded grid's y size.
         occluding: ((nx + 2R) · (ny + 2R) · nz,) bool, False in the padding.
         visits: same size, int64: −1 in G, the largest int64 in the padding (a crossed cell
-            outside G counts as visited: never credited).
+            outside G counts as visited: never credited); read-only, kernels work on a copy.
         column_start: (nx · ny + 1,) int64 CSR of the occluding cells by column (i · ny + j).
         occluder_j, occluder_k: (q,) int64 the occluding cells' j and k, sorted by (i, j, k).
         forward_offsets: per crossing of :attr:`SightLines.forward_cells`, its padded offset.
@@ -380,32 +380,50 @@ class SurfaceTables(NamedTuple):
     through_rays: np.ndarray
 
 
-def surface_tables(lines: SightLines, occluding: np.ndarray) -> SurfaceTables:
-    """The :class:`SurfaceTables` of the (nx, ny, nz) bool ``occluding`` cells for ``lines``."""
+def surface_tables(grid: GridSpec, model: SightModel, occluding: np.ndarray) -> SurfaceTables:
+    """The :class:`SurfaceTables` of the (nx, ny, nz) bool ``occluding`` cells of ``grid`` for
+    ``model``'s sight lines (their padded offsets computed once per geometry)."""
     occluding = np.asarray(occluding, bool)
-    nx, ny, nz = occluding.shape
+    nx, ny, nz = grid.shape
+    lines = sight_lines(grid, model)
     reach = lines.reach
-    padded = np.zeros((nx + 2 * reach, ny + 2 * reach, nz), bool)
+    stride, visits, forward_offsets, through_offsets = _padded_lines(grid, model)
+    padded = np.zeros((nx + 2 * reach, stride, nz), bool)
     padded[reach : reach + nx, reach : reach + ny] = occluding
-    visits = np.full(padded.shape, np.iinfo(np.int64).max, np.int64)
-    visits[reach : reach + nx, reach : reach + ny] = -1
     cells = occluder_cells(occluding)
     columns = np.bincount(cells[:, 0] * ny + cells[:, 1], minlength=nx * ny)
-    stride = ny + 2 * reach
+    return SurfaceTables(
+        reach, stride, padded.ravel(), visits,
+        np.concatenate([[0], np.cumsum(columns)]).astype(np.int64),
+        cells[:, 1].copy(), cells[:, 2].copy(), forward_offsets, through_offsets,
+        lines.ray_of, lines.aimed, lines.forward_start, lines.through_start, lines.through_rays,
+    )  # fmt: skip
+
+
+@functools.lru_cache(maxsize=8)
+def _padded_lines(
+    grid: GridSpec, model: SightModel
+) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+    """The padded geometry of :class:`SurfaceTables` (read-only): stride, visits, forward and
+    through offsets."""
+    lines = sight_lines(grid, model)
+    nx, ny, nz = grid.shape
+    reach, stride = lines.reach, ny + 2 * lines.reach
+    visits = np.full((nx + 2 * reach, stride, nz), np.iinfo(np.int64).max, np.int64)
+    visits[reach : reach + nx, reach : reach + ny] = -1
 
     def offsets(dx: np.ndarray, dy: np.ndarray, k: np.ndarray) -> np.ndarray:
         return ((dx * stride + dy) * nz + k).astype(np.int64)
 
-    forward = lines.forward_cells
-    through = lines.through_rays
-    return SurfaceTables(
-        reach, stride, padded.ravel(), visits.ravel(),
-        np.concatenate([[0], np.cumsum(columns)]).astype(np.int64),
-        cells[:, 1].copy(), cells[:, 2].copy(),
+    forward, through = lines.forward_cells, lines.through_rays
+    arrays = (
+        visits.ravel(),
         offsets(forward[:, 0], forward[:, 1], forward[:, 2]),
         offsets(lines.dx[through], lines.dy[through], lines.k[through]),
-        lines.ray_of, lines.aimed, lines.forward_start, lines.through_start, through,
-    )  # fmt: skip
+    )
+    for array in arrays:
+        array.flags.writeable = False
+    return (stride, *arrays)
 
 
 @njit(cache=True)
@@ -415,7 +433,7 @@ def credited_surface_rays(ci, cj, tables, nx, ny, nz, visits, stamp, out):
 
     Visits the occluding cells within reach in sight-line order (by dx, dy, k), so the lines and
     their order are those of a pass over every sight line. ``tables`` is a
-    :class:`SurfaceTables`; ``visits`` its :attr:`~SurfaceTables.visits` (or a copy), holding no
+    :class:`SurfaceTables`; ``visits`` a copy of its :attr:`~SurfaceTables.visits`, holding no
     stamp ≥ ``stamp`` in G yet (stamps grow from candidate to candidate).
     """
     reach, stride, ray_of = tables.reach, tables.stride, tables.ray_of
@@ -463,8 +481,8 @@ def credited_cells(
     rays = np.empty(lines.n_rays, np.int64)
     ci, cj = int(column[0]), int(column[1])
     if model.code == _PHYSICAL:
-        tables = surface_tables(lines, occluding)
-        n = credited_surface_rays(ci, cj, tables, nx, ny, nz, tables.visits, 0, rays)
+        tables = surface_tables(grid, model, occluding)
+        n = credited_surface_rays(ci, cj, tables, nx, ny, nz, tables.visits.copy(), 0, rays)
     else:
         n = credited_rays(
             ci, cj, occluder_cells(occluding), lines.reach, nz, lines.crossing_start,

@@ -130,6 +130,27 @@ def test_level_blocks_equal_thresholded_probability_blocks():
     )
 
 
+@pytest.mark.parametrize("threshold", [1.2, 0.0, -0.3, float(L_HIT)])
+def test_cells_reaching_a_log_odds_equal_thresholded_logodds_blocks(threshold):
+    # unknown voxels (NaN) never reach, not even a threshold ≤ 0; a known 0 reaches those; one
+    # exact hit reaches L_HIT. Scans reach x < 2 m only: the map's cells beyond are unknown.
+    occupancy = OccupancyMap(
+        BOX, p_hit=0.7, p_miss=0.3, p_clamp_min=0.12, p_clamp_max=0.97, p_occupied=0.5,
+        max_range_m=20.0,
+    )  # fmt: skip
+    rng = np.random.default_rng(4)
+    for _ in range(4):
+        occupancy.insert(ORIGIN, rng.uniform((-2, -2, -1), (2, 2, 1), (300, 3)))
+    coarse = GridSpec.from_bounds((-3.0, -3.0, -2.0), (7.0, 3.0, 2.0), 1.0)  # cells outside too
+    cells = np.argwhere(np.ones(coarse.shape, bool))
+    blocks = occupancy.logodds_blocks(coarse, cells).reshape(len(cells), -1)
+    want = (blocks >= np.float32(threshold)).any(axis=1)
+    assert 0 < want.sum() < len(cells)  # the case is not trivial
+    x = coarse.centres(cells)[:, 0]
+    assert np.isnan(blocks[(x > 3.0) & (x < 6.0)]).all()  # cells of the map no scan reached
+    np.testing.assert_array_equal(occupancy.cells_reaching(coarse, cells, threshold), want)
+
+
 def test_column_counts_kept_by_insertion_equal_a_count_of_the_map():
     occupancy = OccupancyMap(
         BOX, p_hit=0.7, p_miss=0.3, p_clamp_min=0.12, p_clamp_max=0.97, p_occupied=0.5,

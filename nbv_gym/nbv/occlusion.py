@@ -11,7 +11,7 @@ import numpy as np
 from nbv_gym.core.arrays import BoolArray
 from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.core.grid import GridSpec
-from nbv_gym.mapping.occupancy import OccupancyMap, logit
+from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, logit
 
 
 class OcclusionGrid:
@@ -23,7 +23,12 @@ class OcclusionGrid:
         occluding_probability: threshold p of an occluding voxel.
     """
 
-    def __init__(self, grid: GridSpec, voxel_res: float = 0.1, occluding_probability: float = 0.8):
+    def __init__(
+        self,
+        grid: GridSpec,
+        voxel_res: float = MapConfig.resolution_m,
+        occluding_probability: float = 0.8,
+    ):
         if not 0 < occluding_probability < 1:
             raise ConfigError(
                 f"occluding_probability: must be in (0, 1), got {occluding_probability}"

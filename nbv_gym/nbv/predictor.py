@@ -9,7 +9,7 @@ import numpy as np
 from nbv_gym.core.arrays import BoolArray, FloatArray
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
-from nbv_gym.mapping.occupancy import OccupancyMap
+from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap
 from nbv_gym.mapping.statistics import ViewpointStatistics
 from nbv_gym.nbv.config import NbvConfig, NbvSensor
 from nbv_gym.nbv.gains import GAIN_LAYERS, candidate_mask, goal_centres_xy, predict_gains
@@ -37,7 +37,7 @@ class GainPredictor:
         self,
         grid: GridSpec,
         config: NbvConfig,
-        voxel_res: float = 0.1,
+        voxel_res: float = MapConfig.resolution_m,
         sensor: NbvSensor | None = None,
     ):
         self.grid = grid

@@ -35,7 +35,7 @@ from numba import njit
 from nbv_gym.core.arrays import BoolArray, FloatArray
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
-from nbv_gym.mapping.occupancy import OccupancyMap
+from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap
 from nbv_gym.nbv.config import NbvSensor
 from nbv_gym.nbv.occlusion import OcclusionGrid
 from nbv_gym.nbv.visibility import SightModel, credited_rays, occluder_cells, sight_lines
@@ -62,7 +62,7 @@ class VoxelTotals:
         blocking: the :class:`~nbv_gym.nbv.occlusion.OcclusionGrid` of occupied cells.
     """
 
-    def __init__(self, grid: GridSpec, voxel_res: float = 0.1):
+    def __init__(self, grid: GridSpec, voxel_res: float = MapConfig.resolution_m):
         self.grid = grid
         self.blocking = OcclusionGrid(grid, voxel_res, BLOCKING_PROBABILITY)
         self.voxels_per_cell = round(grid.res / voxel_res) ** 3

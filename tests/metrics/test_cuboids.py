@@ -129,6 +129,37 @@ def test_comparison_volume_is_the_ground_truth_bounding_box_in_cuboids():
     assert whole.q == pytest.approx(2 / 60)
 
 
+def test_summary_equals_plain_means_over_every_cuboid_of_the_volume():
+    # the summary adds the unobserved cuboids as counts times their fixed values; the plain
+    # definition averages every cuboid's array entry (numpy, over the whole volume)
+    rng = np.random.default_rng(5)
+    holding = np.kron(rng.random((6, 5, 3)) < 0.3, np.ones((10, 10, 10), bool))  # ~30 % of them
+    gt = holding & (rng.random(holding.shape) < 0.01)
+    prob = np.full(gt.shape, 0.5, np.float32)
+    for ci, cj, ck in np.unique(rng.integers(0, [6, 5, 3], (25, 3)), axis=0):
+        block = prob[ci * 10 : ci * 10 + 10, cj * 10 : cj * 10 + 10, ck * 10 : ck * 10 + 10]
+        block[...] = rng.choice(
+            [0.12, 0.3, 0.45, 0.75, 0.97], block.shape, p=[0.3, 0.3, 0.3, 0.05, 0.05]
+        )
+    metrics = evaluate_cuboids(prob, gt)
+    summary, config = metrics.summary(), metrics.config
+    assert 0 < summary.n_observed < summary.n_occ + summary.n_empty
+    for where, q, q_p, cov, l1 in (
+        (metrics.volume, summary.q, summary.q_paper, summary.cov, summary.l1),
+        (metrics.volume & metrics.observed, summary.q_observed, summary.q_paper_observed,
+         summary.cov_observed, summary.l1_observed),
+    ):  # fmt: skip
+        occ, empty = where & metrics.u_occ, where & ~metrics.u_occ
+        assert q == pytest.approx(metrics.quality[where].mean(), rel=1e-12)
+        assert cov == pytest.approx(tuple(metrics.cov[:, occ].mean(axis=1)), rel=1e-12)
+        assert l1 == pytest.approx(metrics.l1[empty].mean(), rel=1e-12)
+        covs, l1s = metrics.cov[config.q_setting][occ], metrics.l1[empty]
+        norm_cov = (covs - covs.min()) / (covs.max() - covs.min())
+        norm_l1 = (l1s - l1s.min()) / (l1s.max() - l1s.min())
+        expected = (norm_cov.sum() + (1 - norm_l1).sum()) / (covs.size + l1s.size)
+        assert q_p == pytest.approx(expected, rel=1e-12)
+
+
 def test_unknown_volume_is_refused_naming_the_key():
     with pytest.raises(ConfigError, match="volume"):
         CuboidConfig(volume="sky")

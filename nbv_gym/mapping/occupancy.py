@@ -244,7 +244,9 @@ class OccupancyMap:
         if not self._scans:
             self._first_scan[:] = self._dirty
         self._scans += 1
-        if tally is not None and not tally.apply(n_changes, self._sigmoid_cache, self._first_miss):
+        if tally is not None and not tally.apply(
+            n_changes, self._sigmoid_cache, self._first_miss, np.flatnonzero(touched)
+        ):
             cells = np.argwhere(touched)
             tally.recount(cells, self.probability_blocks(region, cells))
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)

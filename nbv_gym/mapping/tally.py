@@ -90,11 +90,17 @@ class CellTally:
         return flat
 
     def apply(
-        self, count: int, cache: tuple[np.ndarray, np.ndarray], first_miss: np.float32
+        self,
+        count: int,
+        cache: tuple[np.ndarray, np.ndarray],
+        first_miss: np.float32,
+        touched: np.ndarray,
     ) -> bool:
         """Add the ``count`` logged changes of a scan and its counted first misses (voxels
         going from unknown to the float32 log-odds ``first_miss``) to the totals (probabilities
-        through the ``cache`` of :mod:`~nbv_gym.mapping.probability`). False if the log
+        through the ``cache`` of :mod:`~nbv_gym.mapping.probability`); ``touched``: (k,) int64
+        flat indices of the cells the scan changed (those holding its first misses, among
+        others: the work follows them, not the grid). False if the log
         overflowed: then nothing was added, the log is large enough for the next scan, and the
         caller recounts the touched cells (:meth:`recount`)."""
         cell, old, new, first_misses = self.log
@@ -107,7 +113,7 @@ class CellTally:
         totals = (self.band, self.thresholds, self.sums.reshape(-1), self.outside.reshape(-1),
                   self.crossed.reshape(-1))  # fmt: skip
         _apply(cell, old, new, count, *totals)
-        _apply_first_misses(first_misses, sigmoid_one(first_miss), *totals)
+        _apply_first_misses(touched, first_misses, sigmoid_one(first_miss), *totals)
         return True
 
     def recount(self, cells: np.ndarray, blocks: np.ndarray) -> None:
@@ -147,10 +153,10 @@ def _apply(cell, old, new, count, band, thresholds, sums, outside, crossed):
 
 
 @njit(cache=True)
-def _apply_first_misses(first_misses, p, band, thresholds, sums, outside, crossed):
+def _apply_first_misses(cells, first_misses, p, band, thresholds, sums, outside, crossed):
     """Add ``first_misses[c]`` changes from unknown (p = 0.5) to probability ``p`` to each cell
-    c as :func:`_apply` would one by one (the sums are exact: one product is their sum), and
-    zero the counts."""
+    c of ``cells`` (the others hold none) as :func:`_apply` would one by one (the sums are
+    exact: one product is their sum), and zero the counts."""
     change = np.float64(p) - np.float64(np.float32(0.5))
     out = (p <= band[0] or p >= band[1]) - (
         np.float32(0.5) <= band[0] or np.float32(0.5) >= band[1]
@@ -158,7 +164,7 @@ def _apply_first_misses(first_misses, p, band, thresholds, sums, outside, crosse
     crossing = False
     for t in thresholds:
         crossing |= (np.float32(0.5) > t) != (p > t)
-    for c in range(first_misses.shape[0]):
+    for c in cells:
         n = first_misses[c]
         if n:
             sums[c] += n * change

@@ -114,9 +114,9 @@ class NavigationLayer:
         self._occupied_widths = half_widths(disc(frontier_occupied_margin_m, cell_m))
         self._inner = _inner_cells(self.grid, border_margin_m)
         centres = goal_grid.xy_centres()
-        self._goal_cells = self.grid.index(np.column_stack([centres, np.zeros(len(centres))]))[
-            :, :2
-        ]
+        cells = self.grid.index(np.column_stack([centres, np.zeros(len(centres))]))[:, :2]
+        #: (n_goals,) flat index of each goal's nav cell in the (nx, ny) layers
+        self._goal_cells = np.ravel_multi_index(tuple(cells.T), self.grid.shape[:2])
         self._goal_inner = _inner_cells(_flat(goal_grid), border_margin_m).ravel()
         shape = self.grid.shape[:2]
         self.known = np.zeros(shape, bool)
@@ -206,8 +206,7 @@ class NavigationLayer:
         self.robot_xy = np.asarray(robot_xy, dtype=float).reshape(2)
         start = self.grid.index([[*self.robot_xy, self.grid.origin[2]]])[0, :2]
         start = (int(start[0]), int(start[1]))
-        escape = self._escape_zone(start) & self.free
-        self.distance = path_lengths(self.eroded_free | escape, start, self.grid.res)
+        self.distance = path_lengths(self._passable(start), start, self.grid.res)
         self._goals = None
 
     def clear(self) -> None:
@@ -220,18 +219,20 @@ class NavigationLayer:
         self._goals = None
         self.plan(np.zeros(2))
 
-    def _escape_zone(self, cell: tuple[int, int]) -> BoolArray:
-        """(nx, ny) bool: the cells within the escape radius of ``cell``."""
-        zone = np.zeros(self.grid.shape[:2], bool)
+    def _passable(self, cell: tuple[int, int]) -> BoolArray:
+        """(nx, ny) bool: eroded free cells, and the free cells within the escape radius of
+        ``cell`` (written in the disc's box only)."""
+        passable = self.eroded_free.copy()
         k = self._escape_disc.shape[0] // 2
-        nx, ny = zone.shape
+        nx, ny = passable.shape
         i0, j0 = max(cell[0] - k, 0), max(cell[1] - k, 0)
         i1, j1 = min(cell[0] + k + 1, nx), min(cell[1] + k + 1, ny)
         if i0 < i1 and j0 < j1:
-            zone[i0:i1, j0:j1] = self._escape_disc[
-                i0 - cell[0] + k : i1 - cell[0] + k, j0 - cell[1] + k : j1 - cell[1] + k
-            ]
-        return zone
+            box = (slice(i0, i1), slice(j0, j1))
+            zone = self._escape_disc[i0 - cell[0] + k : i1 - cell[0] + k,
+                                     j0 - cell[1] + k : j1 - cell[1] + k]  # fmt: skip
+            passable[box] |= zone & self.known[box] & ~self.occupied[box]
+        return passable
 
     # ------------------------------------------------------------------ read-out
 
@@ -278,13 +279,14 @@ class NavigationLayer:
         return self._goals
 
     def _compute_goals(self) -> _Goals:
-        i, j = self._goal_cells.T
-        path_length = np.where(self.eroded_free[i, j], self.distance[i, j], np.inf)
+        cells = self._goal_cells
+        path_length = self.distance.reshape(-1).take(cells)
+        path_length[~self.eroded_free.reshape(-1).take(cells)] = np.inf
         mask = np.isfinite(path_length) & self._goal_inner
         if self.robot_goal >= 0:
             mask[self.robot_goal] = False
         cost = np.where(mask, np.minimum(path_length / self.cost_range_m, 1.0), 1.0)
-        frontier = self._frontier_near[i, j] & mask
+        frontier = self._frontier_near.reshape(-1).take(cells) & mask
         for array in (path_length, mask, cost, frontier):
             array.flags.writeable = False
         return _Goals(path_length, mask, cost, frontier)

@@ -69,7 +69,7 @@ class Observer:
         self.sensor_range_m = float(sensor_range_m)
         self.n_sectors = int(n_sectors)
         self.max_steps = int(max_steps)
-        self._centres = goal_grid.xy_centres()
+        self._centres = goal_grid.xy_centres().T.copy()  # (2, n_goals): x row, y row
         self._diagonal = np.linalg.norm(goal_grid.high[:2] - goal_grid.low[:2])
         self._half = goal_grid.high[:2]
         self._n_obs_scale = np.log1p(100 * goal_grid.shape[2])
@@ -107,8 +107,8 @@ class Observer:
         out["frontier"][:] = nav.frontier_goal_mask()
         out["valid"][:] = nav.goal_mask()
         out["cost"][:] = nav.goal_cost()
-        offset = self._centres - [pose.x, pose.y]
-        out["distance"][:] = np.hypot(offset[:, 0], offset[:, 1]) / self._diagonal
+        x, y = self._centres
+        out["distance"][:] = np.hypot(x - pose.x, y - pose.y) / self._diagonal
         out["robot"][:] = 0.0
         if 0 <= nav.robot_goal < self.n_goals:
             out["robot"][nav.robot_goal] = 1.0

@@ -53,9 +53,9 @@ class ColumnCounts:
 
     def take_changed(self) -> np.ndarray:
         """(m, 2) int64 the cells whose counts changed since the last call, and forget them."""
-        cells = np.argwhere(self.changed)
-        self.changed[:] = False
-        return cells
+        flat = np.flatnonzero(self.changed)  # the flags are few: read and reset only them
+        self.changed.reshape(-1)[flat] = False
+        return np.stack(np.divmod(flat, self.changed.shape[1]), axis=1)
 
     def clear(self) -> None:
         """Every count 0 (an empty map)."""

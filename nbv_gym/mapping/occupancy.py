@@ -91,6 +91,7 @@ class ScanUpdate:
         n_occupied: voxels that received a hit.
         touched: bool mask over the ``region`` grid passed to ``insert`` (G in the exploration
             state): cells holding a voxel whose value changed (empty (0, 0, 0) without a region).
+        touched_cells: (k,) int64 flat (C-order) indices of those cells.
         columns: (nx, ny) bool over the navigation grid (set by the exploration state): cells
             whose counts of known or occupied voxels in the navigation bands changed, hence
             re-projected (empty (0, 0) from a bare map insert).
@@ -100,12 +101,8 @@ class ScanUpdate:
     n_dropped: int
     n_occupied: int
     touched: BoolArray
+    touched_cells: np.ndarray
     columns: BoolArray = field(default_factory=lambda: np.zeros((0, 0), bool))
-
-    @property
-    def touched_cells(self) -> np.ndarray:
-        """(k,) int64 flat (C-order) indices of the touched cells of the region."""
-        return np.flatnonzero(self.touched)
 
     @property
     def changed_columns(self) -> np.ndarray:
@@ -244,12 +241,13 @@ class OccupancyMap:
         if not self._scans:
             self._first_scan[:] = self._dirty
         self._scans += 1
+        changed = np.flatnonzero(touched)
         if tally is not None and not tally.apply(
-            n_changes, self._sigmoid_cache, self._first_miss, np.flatnonzero(touched)
+            n_changes, self._sigmoid_cache, self._first_miss, changed
         ):
             cells = np.argwhere(touched)
             tally.recount(cells, self.probability_blocks(region, cells))
-        return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched)
+        return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched, changed)
 
     def clear(self) -> None:
         """Forget every voxel (all unknown again), reusing the storage: only the blocks written

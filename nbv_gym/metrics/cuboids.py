@@ -230,7 +230,8 @@ def _summary(u_occ, volume, observed, cov, l1, quality, config: CuboidConfig) ->
     values = (quality[seen], cov.take(seen[holding], axis=1), l1[seen[~holding]])
     n_occ = int(np.count_nonzero(u_occ & volume))
     n_empty = int(np.count_nonzero(volume)) - n_occ
-    every = _means(*values, n_occ - int(holding.sum()), n_empty - int((~holding).sum()), config)
+    seen_occ = int(holding.sum())
+    every = _means(*values, n_occ - seen_occ, n_empty - (len(seen) - seen_occ), config)
     observed_means = _means(*values, 0, 0, config)
     return QualitySummary(
         *every,

@@ -1,7 +1,7 @@
 """nbv-gym: a benchmark for autonomous lidar exploration and Next-Best-View research.
 
 ``import nbv_gym`` registers the Gymnasium environments ``nbv_gym/Explore-v0`` (the paper's
-protocol) and ``nbv_gym/ExploreBudget-v0`` (a fixed budget of scans), see :mod:`nbv_gym.core.tasks`::
+protocol) and ``nbv_gym/ExploreBudget-v0`` (a fixed budget of scans), see :mod:`nbv_gym.core.protocol`::
 
     import gymnasium, nbv_gym
     env = gymnasium.make("nbv_gym/Explore-v0", world="pp1-trees", noise=1)
@@ -18,7 +18,7 @@ try:  # the version is stated once, in pyproject.toml
 except PackageNotFoundError:  # a source tree on sys.path without an install
     __version__ = "0+unknown"
 
-from nbv_gym.core.tasks import BUDGET_ID, BUDGET_SCANS, EXPLORE_ID, EXPLORE_MAX_STEPS
+from nbv_gym.core.protocol import BUDGET_ID, BUDGET_SCANS, EXPLORE_ID, EXPLORE_MAX_STEPS
 
 ENV_ID = EXPLORE_ID
 

@@ -14,7 +14,7 @@ from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import NOISE_LEVELS, Pose
 from nbv_gym.core.progress import say_if_compiling
-from nbv_gym.core.tasks import EXPLORE_MAX_STEPS
+from nbv_gym.core.protocol import EXPLORE_MAX_STEPS
 from nbv_gym.mapping import (
     ExplorationState,
     MappingConfig,
@@ -22,9 +22,11 @@ from nbv_gym.mapping import (
     OccupancyMap,
     ViewpointStatistics,
 )
+from nbv_gym.mapping.mapfile import save_map
 from nbv_gym.mapping.scratch import ScanTrial
 from nbv_gym.mapping.tally import CellTally
-from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary, QualityTracker
+from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary
+from nbv_gym.metrics.tracker import QualityTracker
 from nbv_gym.sensor.lidar import Lidar, LidarConfig, Scan
 from nbv_gym.worlds import World, load_spec, load_world
 
@@ -198,7 +200,7 @@ class Simulator:
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         world = f"{self.world.name}@{self.world.spec.digest()}"
-        self.occupancy.save(folder / "map.npz", world)
+        save_map(self.occupancy, folder / "map.npz", world)
         self.statistics.save(folder / "statistics.npz")
 
     def reset(self, seed: int | None = None) -> StepOutcome:

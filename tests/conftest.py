@@ -5,6 +5,27 @@ from __future__ import annotations
 import os
 
 import pytest
+from hypothesis import HealthCheck, settings
+
+from tests.helpers import keeps_contract
+
+#: Hypothesis profiles (``HYPOTHESIS_PROFILE`` selects one): ``fuzz``, the default, a bounded and
+#: derandomised run for the test suite (the same examples every time); ``long``, thousands of
+#: random examples per test for occasional runs (``HYPOTHESIS_PROFILE=long pytest -m fuzz``).
+settings.register_profile(
+    "fuzz",
+    max_examples=30,
+    derandomize=True,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    "long",
+    max_examples=3000,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "fuzz"))
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -80,3 +101,15 @@ def peeking_policies(tmp_path_factory):
     yield folder
     sys.path.remove(str(folder))
     sys.modules.pop("peeking", None)
+
+
+@pytest.fixture(scope="module")
+def contract():
+    """:func:`keeps_contract`, as a fixture for the fuzz tests."""
+    return keeps_contract
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory):
+    """A folder for the files of one test module's examples (each example overwrites its file)."""
+    return tmp_path_factory.mktemp("fuzz")

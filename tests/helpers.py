@@ -4,10 +4,15 @@ test path, see ``[tool.pytest.ini_options] pythonpath``)."""
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
-from collections.abc import Iterator
+import tracemalloc
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
+
+from nbv_gym.core.errors import NbvGymError
 
 #: A world of 10 cuboids: quick to build, enough to explore for a few steps.
 TINY_WORLD = """
@@ -64,3 +69,40 @@ def is_group(command) -> bool:
     """Whether a command of the click tree has subcommands (typer ships its own click, so
     ``isinstance(command, click.Group)`` does not tell)."""
     return isinstance(getattr(command, "commands", None), dict)
+
+
+#: Seconds one input may take before it counts as a hang.
+HANG_S = 20.0
+#: Bytes one input may allocate beyond a fixed allowance of 64 MiB, per byte of input.
+MEMORY_PER_INPUT_BYTE = 64
+
+
+class Hang(BaseException):
+    """An input took longer than :data:`HANG_S` (a BaseException, so no reader swallows it)."""
+
+
+def _alarm(signum, frame):
+    raise Hang(f"no result after {HANG_S} s")
+
+
+def keeps_contract(call: Callable[[], Any], input_size: int) -> Any:
+    """Run ``call``: it must return, or raise an :class:`NbvGymError` with a one-line message,
+    within :data:`HANG_S` and allocating at most 64 MiB + :data:`MEMORY_PER_INPUT_BYTE` ×
+    ``input_size`` bytes (numpy's allocations included). Returns the result or the error."""
+    limit = (64 << 20) + MEMORY_PER_INPUT_BYTE * input_size
+    previous = signal.signal(signal.SIGALRM, _alarm)
+    signal.setitimer(signal.ITIMER_REAL, HANG_S)
+    tracemalloc.start()
+    try:
+        outcome = call()
+    except NbvGymError as error:
+        message = str(error)
+        assert message.strip() and "\n" not in message, f"message {message!r}"
+        outcome = error
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert peak <= limit, f"allocated {peak} bytes for {input_size} bytes of input"
+    return outcome

@@ -84,8 +84,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("episode",),
     ("reporting",),
     ("sweep", "studies", "rl"),
-    ("benchmark", "hub"),
-    ("bench",),
+    ("benchmark",),
+    ("perf",),
     ("cli",),
     ("__main__",),
 )
@@ -143,3 +143,29 @@ def test_the_walker_sees_imports_inside_functions_and_finds_a_cycle():
     assert "nbv_gym.env.render" in graph["nbv_gym.env.explore"]
     assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": {"b"}, "b": set()}) is None
+
+
+def test_every_test_folder_names_a_subpackage():
+    """The tests are laid out like the package: a folder of tests is named after the subpackage
+    it tests (data folders hold no test modules)."""
+    subpackages = {p.name for p in (ROOT / "nbv_gym").iterdir() if (p / "__init__.py").is_file()}
+    folders = {p.parent.name for p in (ROOT / "tests").glob("*/**/test_*.py")}
+    assert folders <= subpackages, f"test folders without a subpackage: {folders - subpackages}"
+
+
+def documented_layers() -> list[tuple[str, ...]]:
+    """The layer table of docs/api/index.md: the subpackages of each row, lowest first."""
+    rows = []
+    for line in (ROOT / "docs" / "api" / "index.md").read_text().splitlines():
+        cells = line.split("|")
+        if len(cells) > 3 and cells[1].strip().isdigit():
+            rows.append(tuple(part.removeprefix("nbv_gym.") for part in _code_spans(cells[2])))
+    return rows
+
+
+def _code_spans(text: str) -> list[str]:
+    return text.split("`")[1::2]
+
+
+def test_the_documented_layer_table_is_the_tested_one():
+    assert documented_layers() == [layer for layer in LAYERS if layer != ("__main__",)]

@@ -7,8 +7,10 @@ from dataclasses import astuple
 import numpy as np
 import pytest
 
-from nbv_gym.mapping import OccupancyMap, ViewpointStatistics
-from nbv_gym.metrics.cuboids import QualityConfig, evaluate_cuboids
+from nbv_gym.mapping import ViewpointStatistics
+from nbv_gym.mapping.mapfile import load_map
+from nbv_gym.metrics.cuboids import QualityConfig
+from nbv_gym.metrics.tracker import evaluate_cuboids
 from nbv_gym.simulator import InvalidActionError, Simulator, SimulatorConfig
 
 WORLD = "pp1-cuboids"
@@ -63,7 +65,7 @@ def test_every_attribute_is_set_in_init():
 def test_save_writes_the_map_and_the_statistics(sim, tmp_path):
     sim.reset(1)
     sim.save(tmp_path / "run")
-    occupancy = OccupancyMap.load(tmp_path / "run" / "map.npz")
+    occupancy = load_map(tmp_path / "run" / "map.npz")
     np.testing.assert_array_equal(occupancy.logodds, sim.occupancy.logodds)
     statistics = ViewpointStatistics.load(tmp_path / "run" / "statistics.npz")
     np.testing.assert_array_equal(statistics.n_obs, sim.statistics.n_obs)

@@ -142,7 +142,7 @@ def baseline(entries: list[Entry]) -> Entry:
 
 def improvement(entry: Entry, best: Entry, seed: int = 0):
     """``P(entry > best)`` on the test split's Q with its stratified bootstrap interval."""
-    from nbv_gym.sweep.stats import probability_of_improvement_interval
+    from nbv_gym.reporting.inference import probability_of_improvement_interval
 
     a, tasks_a = entry.runs(RANK_SPLIT, "q")
     b, tasks_b = best.runs(RANK_SPLIT, "q")
@@ -297,7 +297,7 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
     ``path`` (PNG) and its SVG twin."""
     from nbv_gym.reporting.formatting import figure, policy_colours
     from nbv_gym.reporting.html import save_figure
-    from nbv_gym.sweep.stats import performance_profile
+    from nbv_gym.reporting.inference import performance_profile
 
     players, oracles = ranked(entries)
     ordered = [*players, *oracles]

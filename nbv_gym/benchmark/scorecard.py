@@ -17,7 +17,7 @@ Fields (the JSON schema :data:`SCHEMA_PATH` ships beside this module and fixes t
 - ``aggregates``: per split, the split's score (``metric``: Q after the budget, or Q_paper at
   70 % for the explore task) over all its runs (``all``) and per asset type (``by_asset``): the
   interquartile mean and the mean, each with its 95 % interval under the stratified bootstrap
-  (runs resampled within each world × noise level; :mod:`nbv_gym.sweep.stats`), and the
+  (runs resampled within each world × noise level; :mod:`nbv_gym.reporting.inference`), and the
   optimality gap ``mean(max(1 − score, 0))`` with its interval — the target 1 is a perfect map
   (every ground-truth voxel covered, every empty cuboid at the clamping floor); ``means``: plain
   means of the other figures;
@@ -156,7 +156,7 @@ def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, 
 def summary(runs: list[dict[str, Any]], metric: str, label: str) -> dict[str, Any]:
     """IQM, mean and optimality gap of ``metric`` over ``runs``, each with its 95 % stratified
     bootstrap interval (strata: world × noise level); ``n``: runs with a value."""
-    from nbv_gym.sweep.stats import iqm, optimality_gap, stratified_interval
+    from nbv_gym.reporting.inference import iqm, optimality_gap, stratified_interval
 
     values = np.array([_number(run[metric]) for run in runs], dtype=float)
     strata = [(run["world"], run["noise"]) for run in runs]

@@ -147,8 +147,8 @@ def part_runs(
 
 def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
     """One run's entry of the scorecard from its sweep record (``run`` row and ``steps``)."""
+    from nbv_gym.reporting.inference import q_curve
     from nbv_gym.simulator import EpisodeConfig
-    from nbv_gym.sweep.stats import q_curve
 
     run, steps = record["run"], record["steps"]
     target = EpisodeConfig().discovered_target

@@ -3,7 +3,7 @@
 A :class:`Suite` is a few :class:`Part` s, each a sweep of one policy over worlds × noise levels ×
 repeats under one task:
 
-- ``benchmark``: the budget task (:data:`~nbv_gym.core.tasks.BUDGET_SCANS` scans, no early end) on
+- ``benchmark``: the budget task (:data:`~nbv_gym.core.protocol.BUDGET_SCANS` scans, no early end) on
   the paper's twelve benchmark worlds; score: Q after the budget;
 - ``test``: the budget task on the generated test split (:mod:`nbv_gym.benchmark.testsplit`), whose
   recipe differs from the benchmark and the training pools; score: Q after the budget — the
@@ -33,7 +33,7 @@ from typing import Any
 from nbv_gym.benchmark.testsplit import split_worlds
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import UnknownNameError
-from nbv_gym.core.tasks import BUDGET_SCANS, EXPLORE_MAX_STEPS, check_task, task_episode
+from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS, check_task, task_episode
 from nbv_gym.worlds.spec import WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
@@ -52,7 +52,7 @@ class Part:
     """One sweep of a suite: ``split`` (its name in the scorecard), ``task`` (``budget`` or
     ``explore``), ``worlds`` (benchmark world names or generated :class:`WorldSpec` s), localisation
     ``noise`` levels and ``repeats`` per world and noise level; ``budget_scans`` (budget task) and
-    ``max_steps`` (explore task) as in :mod:`nbv_gym.core.tasks`."""
+    ``max_steps`` (explore task) as in :mod:`nbv_gym.core.protocol`."""
 
     split: str
     task: str

@@ -9,11 +9,23 @@ import numpy as np
 import typer
 
 from nbv_gym.cli.params import POSITIVE
-from nbv_gym.core.errors import missing_file
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import claim_folder
+from nbv_gym.core.progress import Stages
 from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.empir3d_config import Empir3DConfig
+from nbv_gym.metrics.evaluation import (
+    CSV_NAME,
+    REGIONS_NAME,
+    SUMMARY_NAME,
+    check_map_world,
+    empir3d_config,
+    load_ground_truth,
+    load_probability,
+    map_summary,
+    write_cuboid_csv,
+    write_rows,
+)
 
 _EMPIR3D = Empir3DConfig()
 #: ``--epsilon`` and ``--region`` of the Empir3D commands (``evaluate``, ``study empir3d``); None
@@ -31,10 +43,7 @@ RegionOption = Annotated[
     ),
 ]
 
-CSV_NAME = "cuboids.csv"
-SUMMARY_NAME = "summary.json"
 HEATMAP_NAME = "quality.png"
-REGIONS_NAME = "regions.csv"
 
 
 def evaluate(
@@ -93,14 +102,15 @@ def evaluate_map(
     map_path: Path, world: str | None, ground_truth: Path | None, out: Path | None
 ) -> dict:
     """Score a map on the benchmark grid; write the CSV, summary and heat map to ``out``; the summary."""
-    from nbv_gym.metrics.cuboids import benchmark_grid, evaluate_cuboids
+    from nbv_gym.metrics.cuboids import benchmark_grid
+    from nbv_gym.metrics.tracker import evaluate_cuboids
     from nbv_gym.metrics.wasserstein import wd_occ
 
-    _check_map_world(map_path, world)
+    check_map_world(map_path, world)
     if out is not None:
         claim_folder(out, "evaluate")
     grid = benchmark_grid()
-    with _Stages(4) as stage:
+    with Stages(4) as stage:
         stage("reading the map")
         prob = load_probability(map_path, grid)
         stage("reading the ground truth")
@@ -109,29 +119,12 @@ def evaluate_map(
         metrics = evaluate_cuboids(prob, truth)
         stage("WD_occ per cuboid")
         wd = wd_occ(prob, truth, metrics.config, metrics.observed)
-    summary = _map_summary(metrics, wd)
+    summary = map_summary(metrics, wd)
     if out is not None:
-        _write_cuboid_csv(out / CSV_NAME, metrics, wd, grid)
+        write_cuboid_csv(out / CSV_NAME, metrics, wd, grid)
         (out / SUMMARY_NAME).write_text(dumps_json(summary) + "\n")
         _write_heatmap(out / HEATMAP_NAME, metrics.quality, summary["q"])
     return summary
-
-
-def _check_map_world(map_path: Path, world: str | None) -> None:
-    """Refuse to score a saved map against a world other than the one it records."""
-    if world is None or map_path.suffix != ".npz" or not map_path.is_file():
-        return
-    from nbv_gym.mapping import OccupancyMap
-    from nbv_gym.worlds import load_spec
-
-    recorded = OccupancyMap.world_of(map_path)
-    spec = load_spec(world)
-    if recorded and recorded != f"{spec.name}@{spec.digest()}":
-        name = recorded.partition("@")[0]
-        raise MetricInputError(
-            f"{map_path} is a map of world {recorded!r} (name@spec digest), not of {world!r} "
-            f"({spec.name}@{spec.digest()}); score it with --world {name} (or that world's spec)"
-        )
 
 
 def evaluate_clouds(
@@ -151,131 +144,8 @@ def evaluate_clouds(
     result = empir3d(read_points(reference), read_points(candidate), config, distances=True)
     summary = {"reference": str(reference), "candidate": str(candidate), **result.as_dict()}
     if out is not None:
-        _write_rows(out / REGIONS_NAME, result.regions.rows())
+        write_rows(out / REGIONS_NAME, result.regions.rows())
     return summary
-
-
-def load_probability(path: Path, grid) -> np.ndarray:
-    """The (X, Y, Z) float32 probability grid of a saved map (.npz) or a plain array (.npy)."""
-    if not path.is_file():
-        raise MetricInputError(f"{path}: the map file {missing_file(path)}")
-    if path.suffix not in (".npz", ".npy"):
-        raise MetricInputError(
-            f"{path}: --map takes a saved map (.npz, as `nbv-gym run` writes) or a probability "
-            f"grid (.npy), not a {path.suffix or 'suffix-less'} file; score point clouds with "
-            "`nbv-gym evaluate REFERENCE CANDIDATE`"
-        )
-    if path.suffix == ".npy":
-        prob = _load_npy(path)
-        if prob.shape != grid.shape or not np.issubdtype(prob.dtype, np.floating):
-            raise MetricInputError(
-                f"{path}: expected a float probability grid of shape {grid.shape} (the 0.1 m "
-                f"benchmark grid), got {prob.dtype} {prob.shape}"
-            )
-        bad = ~((prob >= 0) & (prob <= 1))  # NaN too
-        if bad.any():
-            raise MetricInputError(
-                f"{path}: probabilities must lie in [0, 1]; {int(bad.sum())} value(s) do not "
-                f"(e.g. {float(prob[bad].flat[0])})"
-            )
-        return prob.astype(np.float32, copy=False)
-    from nbv_gym.mapping import OccupancyMap
-
-    return OccupancyMap.load(path).probability(grid)
-
-
-def load_ground_truth(world: str | None, path: Path | None, grid) -> np.ndarray:
-    """The (X, Y, Z) bool ground truth of ``world`` or of the ``.npy`` file ``path`` on ``grid``."""
-    if (world is None) == (path is None):
-        raise MetricInputError("give exactly one of --world NAME and --ground-truth GT.npy")
-    if world is not None:
-        from nbv_gym.worlds import load_world
-
-        return load_world(world).ground_truth.occupancy(grid)
-    if path is None or not path.is_file():
-        raise MetricInputError(f"{path}: the ground-truth file {missing_file(path)}")
-    truth = _load_npy(path)
-    if truth.shape != grid.shape or truth.dtype != bool:
-        raise MetricInputError(
-            f"{path}: expected a bool ground-truth grid of shape {grid.shape}, got {truth.dtype} {truth.shape}"
-        )
-    return truth
-
-
-def _load_npy(path: Path) -> np.ndarray:
-    from nbv_gym.core.arrayfiles import read_npy
-    from nbv_gym.core.errors import DataFileError
-
-    try:
-        return read_npy(path)
-    except DataFileError as error:
-        raise MetricInputError(str(error)) from None
-    except OSError as error:
-        raise MetricInputError(f"{path}: unreadable .npy file ({error})") from None
-
-
-def _map_summary(metrics, wd: np.ndarray) -> dict:
-    summary = metrics.summary()
-    settings = metrics.config.cov_settings
-    occ = wd[metrics.u_occ]
-    observed = wd[metrics.u_occ & metrics.observed]
-    result = {"q": summary.q, "q_paper": summary.q_paper}
-    result.update(
-        {f"cov_p{p:g}_d{d:g}": c for (p, d), c in zip(settings, summary.cov, strict=True)}
-    )
-    result.update({"l1": summary.l1, "n_occ": summary.n_occ, "n_empty": summary.n_empty})
-    result["n_observed"] = summary.n_observed
-    for name, values in (("wd_occ", occ), ("wd_occ_observed", observed)):
-        stats = _statistics(values)
-        result.update({f"{name}_{k}": v for k, v in stats.items()})
-    return result
-
-
-def _statistics(values: np.ndarray) -> dict[str, float]:
-    if values.size == 0:
-        return {
-            "mean": float("nan"),
-            "median": float("nan"),
-            "min": float("nan"),
-            "max": float("nan"),
-        }
-    return {
-        "mean": float(values.mean()),
-        "median": float(np.median(values)),
-        "min": float(values.min()),
-        "max": float(values.max()),
-    }
-
-
-def _write_cuboid_csv(path: Path, metrics, wd: np.ndarray, grid) -> None:
-    n = metrics.config.cuboid_voxels
-    index = np.argwhere(np.ones(metrics.u_occ.shape, bool))
-    low = grid.low + index * n * grid.res
-    columns = {"ci": index[:, 0], "cj": index[:, 1], "ck": index[:, 2]}
-    columns.update({f"{a}_low_m": np.round(low[:, i], 6) for i, a in enumerate("xyz")})
-    columns.update(
-        {
-            "u_occ": metrics.u_occ.ravel().astype(int),
-            "observed": metrics.observed.ravel().astype(int),
-        }
-    )
-    for (p, d), cov in zip(metrics.config.cov_settings, metrics.cov, strict=True):
-        columns[f"cov_p{p:g}_d{d:g}"] = cov.ravel()
-    columns.update(
-        {"l1": metrics.l1.ravel(), "wd_occ": wd.ravel(), "quality": metrics.quality.ravel()}
-    )
-    _write_rows(
-        path, [dict(zip(columns, row, strict=True)) for row in zip(*columns.values(), strict=True)]
-    )
-
-
-def _write_rows(path: Path, rows: list[dict]) -> None:
-    import csv
-
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]) if rows else [])
-        writer.writeheader()
-        writer.writerows(rows)
 
 
 def _write_heatmap(path: Path, quality: np.ndarray, q: float) -> None:
@@ -304,34 +174,3 @@ def _table(summary: dict) -> str:
 
 def _format(value) -> str:
     return f"{value:.6g}" if isinstance(value, float) else str(value)
-
-
-class _Stages:
-    """A progress bar (stderr) over the named stages of a command: ``stage(name)`` starts the
-    next one, so a slow first run (compiling kernels) shows where it is."""
-
-    def __init__(self, total: int):
-        from nbv_gym.core.progress import progress_bar
-
-        self.bar = progress_bar(total, unit="stage", leave=False,
-                                bar_format="{desc}{n_fmt}/{total_fmt} stages [{elapsed}]")  # fmt: skip
-        self.started = False
-
-    def __enter__(self) -> _Stages:
-        return self
-
-    def __call__(self, name: str) -> None:
-        if self.started:
-            self.bar.update()
-        self.started = True
-        self.bar.set_description(name)
-
-    def __exit__(self, *exc) -> None:
-        self.bar.update()
-        self.bar.close()
-
-
-def empir3d_config(epsilon: float | None, region: float | None) -> Empir3DConfig:
-    """The Empir3D config of the options given; the config's own value for each option left out."""
-    given = {"epsilon_m": epsilon, "region_m": region}
-    return Empir3DConfig(**{k: v for k, v in given.items() if v is not None})

@@ -12,6 +12,7 @@ import typer
 
 from nbv_gym.cli.options import BudgetScansOption, MaxStepsOption, TaskOption, task_of
 from nbv_gym.cli.params import COUNT, FINITE, NOISE_LEVEL, POSITIVE_COUNT, PROBABILITY
+from nbv_gym.mapping.mapfile import load_map
 
 
 def export(
@@ -42,7 +43,6 @@ def export(
     """
     from nbv_gym.core.errors import missing_file
     from nbv_gym.core.outputs import writable_file
-    from nbv_gym.mapping import OccupancyMap
     from nbv_gym.mapping.export import FORMATS, ExportError, export_map
 
     if format not in FORMATS:
@@ -52,7 +52,7 @@ def export(
     out = out or map_path.with_suffix(f".{format}")
     if out.suffix.lower() != f".{format}":
         raise ExportError(f"--out {out} does not end in .{format}; name it *.{format}")
-    count = export_map(OccupancyMap.load(map_path), writable_file(out), min_p)
+    count = export_map(load_map(map_path), writable_file(out), min_p)
     typer.echo(f"{count:,} voxels → {out}")
 
 
@@ -144,7 +144,7 @@ def record(
       nbv-gym record --policy ppo-budget --world pp3-trees --episodes 5 \\
           --out data/ppo  # its own task: budget, 12 scans
     """
-    from nbv_gym.core.tasks import BUDGET_SCANS, EXPLORE_MAX_STEPS
+    from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS
     from nbv_gym.rl.dataset import record_dataset
 
     task, budget_scans = task_of(policy, task, budget_scans, max_steps)

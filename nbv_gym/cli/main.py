@@ -210,7 +210,7 @@ def run(
     """
 
     from nbv_gym.core.outputs import claim_folder, staged_folder
-    from nbv_gym.core.tasks import task_episode
+    from nbv_gym.core.protocol import task_episode
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import is_oracle, load_policy
@@ -307,7 +307,7 @@ def bench(
       nbv-gym bench --json > bench.json
       nbv-gym bench --suite foundation
     """
-    from nbv_gym.bench import run_suites
+    from nbv_gym.perf import run_suites
 
     results = run_suites(suite, _stderr)
     if as_json:

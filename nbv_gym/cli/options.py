@@ -7,7 +7,7 @@ from typing import Annotated
 import typer
 
 from nbv_gym.cli.params import POSITIVE_COUNT
-from nbv_gym.core.tasks import BUDGET_SCANS, EXPLORE_MAX_STEPS
+from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS
 
 TASK_HELP = (
     "explore (stop at 70 % discovered) or budget (a fixed number of scans) [default: the "

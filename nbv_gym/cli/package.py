@@ -45,7 +45,7 @@ def package_model(
       nbv-gym package-model ppo-budget --out hub/ppo-budget --episodes 5
       nbv-gym run --policy sb3:hub/ppo-budget --world pp3-trees
     """
-    from nbv_gym.hub import find_source, package
+    from nbv_gym.rl.hub import find_source, package
 
     source = find_source(run_dir, model)
     typer.echo(f"packaging {source.model} → {out} ({episodes} episode(s) per world)", err=True)

@@ -176,7 +176,7 @@ def study_empir3d(
       nbv-gym study empir3d --world pp1-trees --points 500000 \\
           --out studies/empir3d-trees
     """
-    from nbv_gym.cli.evaluate import empir3d_config
+    from nbv_gym.metrics.evaluation import empir3d_config
     from nbv_gym.studies.empir3d_pipeline import run_empir3d_study
 
     config = empir3d_config(epsilon, region)

@@ -121,3 +121,26 @@ class PlainProgress:
         meter = tqdm.format_meter(self.n, self.total, self.last - self.start, prefix=self.desc,
                                   unit=self.unit, postfix=self.postfix or None, ncols=0)  # fmt: skip
         self.write(meter)
+
+
+class Stages:
+    """A progress bar (stderr) over the named stages of a command: ``stage(name)`` starts the
+    next one, so a slow first run (compiling kernels) shows where it is."""
+
+    def __init__(self, total: int):
+        self.bar = progress_bar(total, unit="stage", leave=False,
+                                bar_format="{desc}{n_fmt}/{total_fmt} stages [{elapsed}]")  # fmt: skip
+        self.started = False
+
+    def __enter__(self) -> Stages:
+        return self
+
+    def __call__(self, name: str) -> None:
+        if self.started:
+            self.bar.update()
+        self.started = True
+        self.bar.set_description(name)
+
+    def __exit__(self, *exc) -> None:
+        self.bar.update()
+        self.bar.close()

@@ -1,4 +1,4 @@
-"""``nbv_gym/Explore-v0`` and ``nbv_gym/ExploreBudget-v0`` (:mod:`nbv_gym.core.tasks`): the Gymnasium
+"""``nbv_gym/Explore-v0`` and ``nbv_gym/ExploreBudget-v0`` (:mod:`nbv_gym.core.protocol`): the Gymnasium
 environment around the :class:`~nbv_gym.simulator.Simulator`.
 
 Action: ``Discrete(nx · ny)``, a goal cell of G's nx × ny x, y cells (row-major; 60 × 60 = 3600 on
@@ -26,7 +26,7 @@ from gymnasium import spaces
 
 from nbv_gym.core.config import check, from_dict, merge, to_dict
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.tasks import task_episode
+from nbv_gym.core.protocol import task_episode
 from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
@@ -111,7 +111,7 @@ class ExploreEnv(gymnasium.Env):
         render_mode: None or "rgb_array".
         config: an :class:`EnvConfig` (or a dict of its fields).
         task: ``"explore"`` (the paper's protocol) or ``"budget"`` (``max_steps`` scans, no
-            termination; :mod:`nbv_gym.core.tasks`); ``nbv_gym/ExploreBudget-v0`` sets it.
+            termination; :mod:`nbv_gym.core.protocol`); ``nbv_gym/ExploreBudget-v0`` sets it.
         world, noise, max_steps, observation_layers, invalid_action, world_pool_size, episodes_per_world: shortcuts overriding the config's ``simulator.world``,
             ``simulator.noise``, ``simulator.episode.max_steps``, ``observation_layers``,
             ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. Through

@@ -16,19 +16,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
-from numba import njit
 
-from nbv_gym.core.arrayfiles import array_of, read_npz, read_saved
 from nbv_gym.core.arrays import BoolArray, FloatArray, finite_rows
 from nbv_gym.core.config import check
-from nbv_gym.core.errors import ConfigError, DataFileError, NbvGymError, PoseError
+from nbv_gym.core.errors import ConfigError, NbvGymError, PoseError
 from nbv_gym.core.grid import GridSpec
+from nbv_gym.mapping.blocks import gather_levels, gather_logodds, mark_reaching, project_columns
 from nbv_gym.mapping.columns import NO_COLUMNS, ColumnCounts
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
-from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded, is_known
+from nbv_gym.mapping.store import KNOWN_ZERO, ZeroPages, decoded, encoded
 from nbv_gym.mapping.tally import NO_LOG, CellTally
 from nbv_gym.mapping.traversal import (
     BRICK,
@@ -38,8 +36,6 @@ from nbv_gym.mapping.traversal import (
     insert_scan,
     window_patterns,
 )
-
-_FORMAT = "nbv_gym.OccupancyMap/1"
 
 
 def logit(p: float) -> float:
@@ -379,7 +375,7 @@ class OccupancyMap:
         :meth:`probability_blocks` with the thresholds, without computing a probability."""
         offset, cells, f = self._cell_voxels(grid, cells)
         out = np.empty((len(cells), f, f, f), np.uint32)
-        _gather_levels(
+        gather_levels(
             self._store, *self._offsets, self._dims, offset, cells,
             np.asarray(bounds, np.float32), out,
         )  # fmt: skip
@@ -391,7 +387,7 @@ class OccupancyMap:
         cells) >= logodds).any()`` per cell, stopping at a cell's first such voxel."""
         offset, cells, f = self._cell_voxels(grid, cells)
         out = np.zeros(len(cells), bool)
-        _reaching(
+        mark_reaching(
             self._store, *self._offsets, self._dims, offset, cells, f, np.float32(logodds), out
         )
         return out
@@ -399,7 +395,7 @@ class OccupancyMap:
     def _blocks(self, grid: GridSpec, cells: np.ndarray, as_probability: bool) -> np.ndarray:
         offset, cells, f = self._cell_voxels(grid, cells)
         out = np.empty((len(cells), f, f, f), np.float32)
-        _gather_blocks(self._store, *self._offsets, self._dims, offset, cells, out)
+        gather_logodds(self._store, *self._offsets, self._dims, offset, cells, out)
         if as_probability:
             probabilities_in_place(out.reshape(-1), out.size, self._sigmoid_cache)
         return out
@@ -432,7 +428,7 @@ class OccupancyMap:
 
     def occupied_points(self, threshold: float = 0.5) -> np.ndarray:
         """(n, 3) float64 centres (metres) of the voxels with probability ≥ ``threshold``."""
-        index, _ = self._voxels_at_least(threshold)
+        index, _ = self.voxels_at_least(threshold)
         return self.grid.centres(index)
 
     def project(
@@ -452,7 +448,7 @@ class OccupancyMap:
         known = np.zeros(grid.shape[:2], bool)
         occupied = np.zeros(grid.shape[:2], bool)
         (x0, y0), factor = self._column_block(grid)
-        _project_columns(
+        project_columns(
             self._store, *self._offsets, x0, y0, factor,
             np.array(self._band_layers(known_band_m), np.int64),
             np.array(self._band_layers(occupied_band_m), np.int64),
@@ -514,7 +510,7 @@ class OccupancyMap:
         self._pages.zero(0, self._store.size)
         self._store[known] = bricked[known]
 
-    def _voxels_at_least(self, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    def voxels_at_least(self, threshold: float) -> tuple[np.ndarray, np.ndarray]:
         """(n, 3) indices and (n,) float32 log-odds of the known voxels with probability ≥
         ``threshold`` (≤ 0: all known voxels), in (x, y, z) C order."""
         bricks = self._brick_view()
@@ -562,50 +558,6 @@ class OccupancyMap:
         k1 = min(math.floor(high + 1e-6) + 1, self.grid.shape[2])
         return k0, max(k0, k1)
 
-    # ------------------------------------------------------------------ files
-
-    def save(self, path: str | Path, world: str = "") -> None:
-        """Write the map to a ``.npz`` file (known voxels only); ``world`` (``NAME@DIGEST`` of
-        the world it maps, see :func:`world_of`) is recorded so that scoring it against
-        another world can be refused."""
-        index, logodds = self._voxels_at_least(0.0)
-        np.savez_compressed(
-            Path(path),
-            format=np.array(_FORMAT),
-            world=np.array(world),
-            **self.grid.to_arrays(),
-            params=np.array([self.params[k] for k in _PARAM_KEYS]),
-            index=self.grid.ravel(index).astype(np.int64),
-            logodds=logodds,
-        )
-
-    @staticmethod
-    def world_of(path: str | Path) -> str:
-        """The ``NAME@DIGEST`` of the world the saved map at ``path`` maps ("" when it records
-        none: maps saved before it was recorded, or without a world)."""
-        world = read_npz(path, names=("world",)).get("world")
-        return str(world) if world is not None and world.shape == () else ""
-
-    @classmethod
-    def load(cls, path: str | Path) -> OccupancyMap:
-        """Read a map written by :meth:`save`; :class:`DataFileError` for any other file, or a
-        grid of more than :data:`MAX_LOAD_VOXELS` voxels (checked before allocating)."""
-        data = read_saved(path, _FORMAT, "occupancy map")
-        grid = GridSpec.from_arrays(data, str(path))
-        if math.prod(grid.shape) > MAX_LOAD_VOXELS:
-            raise DataFileError(
-                f"{path}: a map of {grid.shape} voxels is larger than {MAX_LOAD_VOXELS} voxels"
-            )
-        values = array_of(data, "params", "f", (len(_PARAM_KEYS),), path)
-        params = dict(zip(_PARAM_KEYS, values.tolist(), strict=True))
-        _check_params(params, path)
-        index = array_of(data, "index", "iu", (None,), path)
-        if index.size and not (0 <= index.min() and index.max() < grid.size):
-            raise DataFileError(f"{path}: voxel indices outside the {grid.shape} grid")
-        logodds = np.full(grid.shape, np.nan, np.float32)
-        logodds.ravel()[index] = array_of(data, "logodds", "f", index.shape, path)
-        return cls.from_logodds(grid, logodds, **params)
-
     @classmethod
     def from_logodds(cls, grid: GridSpec, logodds: np.ndarray, **params: float) -> OccupancyMap:
         """A map over ``grid`` holding the (nx, ny, nz) float ``logodds`` (NaN = unknown);
@@ -619,151 +571,6 @@ class OccupancyMap:
         occupancy._set_dense(logodds)
         occupancy._dirty[:] = True
         return occupancy
-
-    def to_ply(self, path: str | Path, min_probability: float = 0.5) -> int:
-        """Write the centres of the known voxels with probability ≥ ``min_probability`` (0 = every
-        known voxel) to a binary PLY file, the probability as the per-vertex scalar ``quality``
-        (CloudCompare shows it as a scalar field, MeshLab as vertex quality). Returns the count."""
-        index, logodds = self._voxels_at_least(min_probability)
-        vertices = np.empty(len(index), dtype=[("xyz", "<f4", 3), ("quality", "<f4")])
-        vertices["xyz"] = self.grid.centres(index)
-        vertices["quality"] = probabilities(logodds)
-        header = (
-            "ply\nformat binary_little_endian 1.0\n"
-            "comment nbv-gym occupancy map: voxel centres, quality = occupancy probability\n"
-            f"comment resolution_m {self.grid.res}\n"
-            f"element vertex {len(index)}\n"
-            "property float x\nproperty float y\nproperty float z\nproperty float quality\n"
-            "end_header\n"
-        )
-        with open(path, "wb") as f:
-            f.write(header.encode("ascii"))
-            f.write(vertices.tobytes())
-        return len(index)
-
-
-_PARAM_KEYS = ("p_hit", "p_miss", "p_clamp_min", "p_clamp_max", "p_occupied", "max_range_m")
-#: The largest map :meth:`OccupancyMap.load` reads (voxels; 4 bytes each, a few copies while
-#: loading): 8 × the default 0.1 m map, the default box at 0.05 m.
-MAX_LOAD_VOXELS = 1 << 28
-
-
-def _check_params(params: dict[str, float], path: str | Path) -> None:
-    """:class:`DataFileError` unless a saved map's sensor-model parameters are valid."""
-    try:
-        MapConfig(**{k: v for k, v in params.items() if k != "max_range_m"})
-    except ConfigError as error:
-        raise DataFileError(f"{path}: {error}") from None
-    if not 0 < params["max_range_m"] < math.inf:
-        raise DataFileError(
-            f"{path}: max_range_m must be finite and > 0, got {params['max_range_m']}"
-        )
-
-
-@njit(cache=True)
-def _gather_blocks(store, x_offset, y_offset, z_offset, dims, offset, cells, out):
-    """Fill ``out`` (k, f, f, f) with the log-odds (NaN = unknown, also outside the map) of
-    ``cells`` (coarse indices) from the bricked ``store`` (voxel (a, b, k) at ``x_offset[a] +
-    y_offset[b] + z_offset[k]``)."""
-    nx, ny, nz = dims[2], dims[3], dims[4]
-    f = out.shape[1]
-    out[:] = np.nan
-    for c in range(cells.shape[0]):
-        x0 = offset[0] + cells[c, 0] * f
-        y0 = offset[1] + cells[c, 1] * f
-        z0 = offset[2] + cells[c, 2] * f
-        for a in range(max(0, -x0), min(f, nx - x0)):
-            for b in range(max(0, -y0), min(f, ny - y0)):
-                column = x_offset[x0 + a] + y_offset[y0 + b]
-                for d in range(max(0, -z0), min(f, nz - z0)):
-                    value = store[column + z_offset[z0 + d]]
-                    if is_known(value):
-                        out[c, a, b, d] = value if value != KNOWN_ZERO else np.float32(0.0)
-
-
-@njit(cache=True)
-def _reaching(store, x_offset, y_offset, z_offset, dims, offset, cells, f, logodds, out):
-    """Set ``out[c]`` iff coarse cell ``cells[c]`` (``f`` voxels a side) holds a known voxel
-    of log-odds ≥ ``logodds`` (float32; :data:`KNOWN_ZERO` read as 0)."""
-    nx, ny, nz = dims[2], dims[3], dims[4]
-    zero = np.float32(0.0)
-    for c in range(cells.shape[0]):
-        x0 = offset[0] + cells[c, 0] * f
-        y0 = offset[1] + cells[c, 1] * f
-        z0 = offset[2] + cells[c, 2] * f
-        for a in range(max(0, -x0), min(f, nx - x0)):
-            for b in range(max(0, -y0), min(f, ny - y0)):
-                column = x_offset[x0 + a] + y_offset[y0 + b]
-                for d in range(max(0, -z0), min(f, nz - z0)):
-                    value = store[column + z_offset[z0 + d]]
-                    if is_known(value) and (zero if value == KNOWN_ZERO else value) >= logodds:
-                        out[c] = True
-                        break
-                if out[c]:
-                    break
-            if out[c]:
-                break
-
-
-@njit(cache=True)
-def _gather_levels(store, x_offset, y_offset, z_offset, dims, offset, cells, bounds, out):
-    """Fill ``out`` (k, f, f, f) uint32 with the bitmask of the ``bounds`` each voxel's
-    log-odds reaches (unknown and outside the map: log-odds 0) for the coarse ``cells``."""
-    nx, ny, nz = dims[2], dims[3], dims[4]
-    f = out.shape[1]
-    unknown = np.uint32(0)  # the stored value of an unknown voxel is 0 too
-    for s in range(bounds.shape[0]):
-        unknown |= np.uint32(bounds[s] <= 0.0) << np.uint32(s)
-    out[:] = unknown
-    for c in range(cells.shape[0]):
-        x0 = offset[0] + cells[c, 0] * f
-        y0 = offset[1] + cells[c, 1] * f
-        z0 = offset[2] + cells[c, 2] * f
-        for a in range(max(0, -x0), min(f, nx - x0)):
-            for b in range(max(0, -y0), min(f, ny - y0)):
-                column = x_offset[x0 + a] + y_offset[y0 + b]
-                for d in range(max(0, -z0), min(f, nz - z0)):
-                    value = store[column + z_offset[z0 + d]]  # KNOWN_ZERO compares like 0
-                    level = np.uint32(0)
-                    for s in range(bounds.shape[0]):
-                        level |= np.uint32(value >= bounds[s]) << np.uint32(s)
-                    out[c, a, b, d] = level
-
-
-@njit(cache=True)
-def _project_columns(store, x_offset, y_offset, z_offset, x0, y0, f, known_layers, occupied_layers,
-                     bound, cells, known, occupied):  # fmt: skip
-    """Set ``known[i, j]`` and ``occupied[i, j]`` of each (i, j) of ``cells``: whether some voxel
-    of the cell's f × f columns (first column (x0 + f·i, y0 + f·j)) in the [k0, k1) layers is
-    known, respectively known and ≥ ``bound`` (a positive bound needs no test of known-ness:
-    unknown is 0). Voxel (a, b, k) is ``store[x_offset[a] + y_offset[b] + z_offset[k]]``
-    (:func:`~nbv_gym.mapping.traversal.axis_offsets`); the loops are written out (a helper
-    taking the arrays would cost numba reference counting per call)."""
-    for c in range(cells.shape[0]):
-        i, j = cells[c, 0], cells[c, 1]
-        xa, ya = x0 + f * i, y0 + f * j
-        for target in range(2):  # 0: known, 1: occupied
-            layers = occupied_layers if target else known_layers
-            found = False
-            for k in range(layers[0], layers[1]):
-                for a in range(xa, xa + f):
-                    base = z_offset[k] + x_offset[a]
-                    for b in range(ya, ya + f):
-                        value = store[base + y_offset[b]]
-                        if target:
-                            found = value >= bound and (bound > 0.0 or is_known(value))
-                        else:
-                            found = is_known(value)
-                        if found:
-                            break
-                    if found:
-                        break
-                if found:
-                    break
-            if target:
-                occupied[i, j] = found
-            else:
-                known[i, j] = found
 
 
 def _positive_bound(threshold: np.float32) -> np.float32:

@@ -27,6 +27,9 @@ from nbv_gym.core.errors import DataFileError, NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.mapping.traversal import observe_scan
 
+#: The four viewpoint statistics of a cuboid of G, in the papers' order.
+STATISTICS = ("n_obs", "r_min", "n_omega", "sigma_theta")
+
 _FORMAT = "nbv_gym.ViewpointStatistics/1"
 #: The grid-shaped arrays of a saved file: name, numpy dtype kinds, trailing shape.
 _SAVED_ARRAYS = (("n_obs", "iu", ()), ("r_min_raw", "f", ()), ("sector_mask", "u", ()),

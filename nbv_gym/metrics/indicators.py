@@ -25,10 +25,10 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.errors import UnknownNameError
+from nbv_gym.mapping.statistics import STATISTICS
 from nbv_gym.metrics import MetricInputError
 
 METRICS = ("cov", "l1")
-STATISTICS = ("n_obs", "r_min", "n_omega", "sigma_theta")
 
 
 @dataclass(frozen=True)

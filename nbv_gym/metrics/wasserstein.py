@@ -21,12 +21,7 @@ from numba import njit, prange
 
 from nbv_gym.core.arrays import BoolArray, FloatArray
 from nbv_gym.metrics import MetricInputError
-from nbv_gym.metrics.cuboids import (
-    CuboidConfig,
-    check_grids,
-    cuboid_view,
-    occupied_cuboids,
-)
+from nbv_gym.metrics.cuboids import CuboidConfig, check_grids, cuboid_view, occupied_cuboids
 
 #: Cuboids solved together along the innermost (SIMD) array axis.
 LANES = 8

@@ -19,7 +19,7 @@ import numpy as np
 
 from nbv_gym.core.config import read_toml
 from nbv_gym.core.errors import NbvGymError, UnknownNameError
-from nbv_gym.core.tasks import check_task
+from nbv_gym.core.protocol import check_task
 
 #: Registered policy names → ``module:Class`` of their implementation.
 POLICIES: dict[str, str] = {

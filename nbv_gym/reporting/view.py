@@ -28,6 +28,7 @@ import numpy as np
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.trajectory import TRAJECTORY_NAME, read_trajectory
+from nbv_gym.mapping.mapfile import load_map
 
 COLOURINGS = ("probability", "n_obs", "r_min", "n_omega", "sigma_theta")
 VIEW_NAME = "view.html"
@@ -68,7 +69,6 @@ def load_scene(
 ) -> Scene:
     """The scene of a run folder (``map.npz``, and when present ``statistics.npz``,
     ``summary.json``, ``trajectory.csv``) or of a map file ``.npz``."""
-    from nbv_gym.mapping import OccupancyMap
     from nbv_gym.mapping.export import map_voxels
 
     if colour_by not in COLOURINGS:
@@ -77,7 +77,7 @@ def load_scene(
     folder, map_path = (source, source / "map.npz") if source.is_dir() else (None, source)
     if not map_path.is_file():
         raise ViewError(f"{map_path}: no such map; give a run folder (nbv-gym run) or a map .npz")
-    voxels, probability = map_voxels(OccupancyMap.load(map_path), min_probability)
+    voxels, probability = map_voxels(load_map(map_path), min_probability)
     above = voxels[:, 2] >= min_z_m
     voxels, probability = voxels[above], probability[above]
     values, label = probability, "occupancy probability"

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from nbv_gym.core.config import check, from_dict, read_toml
-from nbv_gym.core.tasks import BUDGET_SCANS, TASKS
+from nbv_gym.core.protocol import BUDGET_SCANS, TASKS
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
 
@@ -74,7 +74,7 @@ class TrainConfig:
       ~1.8 s CPU, and 4 cut budget training's CPU per step from 83 to 52 ms); evaluation cycles over ``eval_worlds`` with
       ``eval_episodes`` episodes (default: one per world).
     - ``task``: ``"budget"`` (``max_steps`` scans, no termination: the agent cannot profit from
-      delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.core.tasks`.
+      delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.core.protocol`.
     - ``noise``, ``max_steps``: the environment's localisation noise level and episode length
       (the budget of the budget task).
     - ``observation_layers``: optional layers (e.g. ``gain_nobs``) the agent observes besides the

@@ -26,7 +26,7 @@ import numpy as np
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.names import check_path_of_names
 from nbv_gym.core.outputs import writable_folder
-from nbv_gym.core.tasks import EXPLORE_MAX_STEPS, TASK_IDS
+from nbv_gym.core.protocol import EXPLORE_MAX_STEPS, TASK_IDS
 
 #: The info entries kept in a dataset (the rest is derived or not array-like).
 INFO_KEYS = ("action_mask", "discovered", "q", "q_paper", "path_length_m")

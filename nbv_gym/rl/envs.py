@@ -15,7 +15,7 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from nbv_gym.core.tasks import EXPLORE_MAX_STEPS
+from nbv_gym.core.protocol import EXPLORE_MAX_STEPS
 from nbv_gym.env.explore import ExploreEnv
 from nbv_gym.worlds import load_world
 from nbv_gym.worlds.distribution import POOL_SIZE

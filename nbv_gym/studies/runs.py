@@ -19,6 +19,7 @@ import numpy as np
 
 from nbv_gym.core.arrayfiles import read_npz
 from nbv_gym.core.grid import GRID_ARRAYS, GridSpec
+from nbv_gym.mapping.mapfile import load_map
 from nbv_gym.studies import StudyError
 
 SCANS_NAME = "scans.npz"
@@ -116,12 +117,11 @@ def find_runs(root: Path) -> list[RunFolder]:
 def run_map(run: RunFolder, resolution_m: float):
     """The :class:`~nbv_gym.mapping.OccupancyMap` of ``run`` at ``resolution_m``: its saved map when
     that has this resolution, else its scans replayed into a new map; None when it has no scans."""
-    from nbv_gym.mapping import OccupancyMap
 
     path = run.path / MAP_NAME
     saved_res = GridSpec.from_arrays(read_npz(path, names=GRID_ARRAYS), str(path)).res
     if np.isclose(saved_res, resolution_m):
-        return OccupancyMap.load(run.path / MAP_NAME)
+        return load_map(run.path / MAP_NAME)
     return replay(run.path / SCANS_NAME, resolution_m) if run.has_scans else None
 
 

@@ -31,12 +31,11 @@ from nbv_gym.core.grid import GridSpec, float_triple
 from nbv_gym.metrics.cuboids import (
     COV_SETTINGS,
     CuboidConfig,
-    QualityTracker,
     benchmark_grid,
     cuboid_view,
-    evaluate_cuboids,
     occupied_cuboids,
 )
+from nbv_gym.metrics.tracker import QualityTracker, evaluate_cuboids
 from nbv_gym.metrics.wasserstein import (
     PAPER_BLUR_LEVELS,
     blurred_reconstruction,

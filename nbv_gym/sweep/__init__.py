@@ -6,7 +6,7 @@ or a Dask cluster, and the report that reproduces the NBV paper's figures and ta
 - :mod:`nbv_gym.sweep.backends`: the process-pool and Dask backends.
 - :mod:`nbv_gym.sweep.worker`: one run in a worker process.
 - :mod:`nbv_gym.sweep.folder`: the results folder layout and its consolidated tables.
-- :mod:`nbv_gym.sweep.report`, :mod:`nbv_gym.sweep.stats`: figures, tables and their statistics.
+- :mod:`nbv_gym.sweep.report`, :mod:`nbv_gym.reporting.inference`: figures, tables and their statistics.
 
 Importing this package is light: pandas, matplotlib and dask load only when used.
 """

@@ -24,7 +24,7 @@ from typing import Any
 from nbv_gym.core.config import check, from_dict, merge, read_toml, to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.names import check_name
-from nbv_gym.core.tasks import BUDGET_SCANS, EXPLORE_MAX_STEPS, check_task, task_episode
+from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS, check_task, task_episode
 from nbv_gym.policies import POLICIES
 
 #: The seven policies of the paper, in its order (the registry's order).
@@ -47,7 +47,7 @@ class SweepConfig:
     localisation-noise levels (0, 1, 2); ``repeats``: runs per combination; ``seed``: base seed
     of every run seed; ``max_steps``: the episode truncation of the explore task; ``task``:
     ``"explore"`` (the paper's protocol) or ``"budget"`` (``budget_scans`` scans, no
-    termination; :mod:`nbv_gym.core.tasks`); ``retries``: how many times a failed run is retried
+    termination; :mod:`nbv_gym.core.protocol`); ``retries``: how many times a failed run is retried
     within one invocation; ``run_timeout_s``: wall-clock limit of one run
     (world building included), after which its worker is stopped and the run recorded as failed
     ("timed out after N s"); ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for

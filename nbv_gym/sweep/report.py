@@ -7,52 +7,47 @@ Built from the consolidated tables alone (``runs.csv``, ``steps.csv``, ``cuboids
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from nbv_gym.mapping.statistics import STATISTICS
 from nbv_gym.policies import PAPER_POLICIES
 from nbv_gym.reporting.formatting import (
     asset_order,
     is_oracle_label,
     markdown_table,
     oracle_label,
-    policy_colours,
-    policy_style,
     ranked_apart,
 )
-from nbv_gym.reporting.formatting import figure as _figure
-from nbv_gym.reporting.html import save_figure, write_html
-from nbv_gym.sweep.effort import bands, curves_at, effort_section
-from nbv_gym.sweep.folder import ResultStore, SweepError
-from nbv_gym.sweep.stats import (
+from nbv_gym.reporting.html import write_html
+from nbv_gym.reporting.inference import (
     Interval,
-    compare_paired,
-    holm,
-    iqm,
-    power_note,
-    probability_of_improvement_interval,
     q_auc,
-    share_significant,
-    smallest_p_wilcoxon,
-    stratified_interval,
+)
+from nbv_gym.sweep.effort import effort_section
+from nbv_gym.sweep.figures import (
+    STATISTIC_LABELS,
+    plot_fig1,
+    plot_fig2,
+)
+from nbv_gym.sweep.folder import ResultStore, SweepError
+from nbv_gym.sweep.tables import (
+    ci_text,
+    final_table,
+    indicator_tests_table,
+    pairwise_table,
+    pairwise_text,
+    share_text,
+    table2,
 )
 
-STATISTICS = ("n_obs", "r_min", "n_omega", "sigma_theta")
-STATISTIC_LABELS = {
-    "n_obs": "n_obs",
-    "r_min": "r_min (m)",
-    "n_omega": "n_Ω",
-    "sigma_theta": "σ_θ",
-}
 #: Policies whose runs Table II is computed on (paper §IV-C: no bias from the statistics).
 UNBIASED_POLICIES = ("random-frontier", "random-free")
 ALPHA = 0.05
 FIG1_NOISE = 1  # the paper shows Fig. 1 for noise level 1
-UNIT_COLUMNS = ("world", "noise", "repeat")  # what pairs runs of two policies
 
 
 @dataclass
@@ -146,7 +141,7 @@ def _config_facts(path: Path) -> tuple[float, list[str]]:
 
 
 def run_aucs(runs, steps, target: float) -> np.ndarray:
-    """(n,) area under each run's Q-vs-discovered curve (:func:`~nbv_gym.sweep.stats.q_auc`)."""
+    """(n,) area under each run's Q-vs-discovered curve (:func:`~nbv_gym.reporting.inference.q_auc`)."""
     groups = {key: group for key, group in steps.groupby("key", sort=False)}
     aucs = []
     for key in runs["key"]:
@@ -224,132 +219,7 @@ def _fig2_section(ok, data: Results, out: Path) -> str:
     return "\n".join(lines)
 
 
-def q_bands(runs, steps, grid: np.ndarray, column: str = "q") -> dict[tuple[str, str], np.ndarray]:
-    """Per (asset, policy): a (3, k) array of mean, min and max of ``column`` over the runs at
-    the discovered fractions ``grid``; min and max where at least one run covers a fraction, the
-    mean where at least half of the runs do (so that the mean does not jump where runs end), NaN
-    elsewhere."""
-    return bands(runs, curves_at(steps, "discovered", column, grid), len(grid))
-
-
-def plot_fig2(
-    runs, steps, policies, target: float, path: Path, title: str, column: str = "q"
-) -> None:
-    """Fig. 2 of the paper (``column`` against the discovered fraction) for ``runs`` to ``path``."""
-    label = {"q": "Q", "q_paper": "Q_paper"}.get(column, column)
-    assets = asset_order(runs["asset"])
-    grid = np.linspace(0, max(target, 0.05), 141)
-    drawn = q_bands(runs, steps, grid, column)
-    fig = _figure(4 * len(assets), 3.6)
-    axes = fig.subplots(1, len(assets), sharey=True, squeeze=False)
-    colours = policy_colours(policies)
-    for ax, asset in zip(axes[0], assets, strict=True):
-        for policy in policies:
-            if (asset, policy) not in drawn:
-                continue
-            mean, low, high = drawn[(asset, policy)]
-            ax.plot(grid, mean, policy_style(policy), color=colours[policy], label=policy, lw=1.5)
-            ax.fill_between(grid, low, high, color=colours[policy], alpha=0.12, lw=0)
-        ax.set_title(asset or "(unknown asset)")
-        ax.set_xlabel("discovered fraction")
-        ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel(label)
-    axes[0][-1].legend(fontsize=7, loc="upper left")
-    fig.suptitle(f"{label} against discovered fraction ({title})")
-    fig.tight_layout()
-    save_figure(fig, path)
-
-
 # -- final Q, AUC and pairwise comparisons -----------------------------------------------------------
-
-
-def final_table(ok, policies: list[str], rng: np.random.Generator):
-    """Per policy: runs, final Q and AUC (mean with 95 % stratified bootstrap interval: runs
-    resampled within each world × noise level), mean Q_paper, discovered fraction, steps and path
-    length. A DataFrame, one row per policy."""
-    import pandas as pd
-
-    rows = []
-    for policy in policies:
-        group = ok[ok["policy"] == policy]
-        if group.empty:
-            continue
-        strata = _strata(group)
-        q = stratified_interval(group["q"], strata, np.mean, rng)
-        auc = stratified_interval(group["auc"], strata, np.mean, rng)
-        q_iqm = stratified_interval(group["q"], strata, iqm, rng)
-        rows.append(
-            {
-                "policy": policy,
-                "runs": len(group),
-                "q_mean": q.mean,
-                "q_low": q.low,
-                "q_high": q.high,
-                "q_iqm": q_iqm.mean,
-                "q_iqm_low": q_iqm.low,
-                "q_iqm_high": q_iqm.high,
-                "auc_mean": auc.mean,
-                "auc_low": auc.low,
-                "auc_high": auc.high,
-                "q_paper_mean": group["q_paper"].mean(),
-                "discovered_mean": group["discovered"].mean(),
-                "steps_mean": group["steps"].mean(),
-                "path_length_m_mean": group["path_length_m"].mean(),
-            }
-        )
-    return pd.DataFrame(rows)
-
-
-def pairwise_table(ok, policies: list[str], metric: str, rng: np.random.Generator):
-    """Every pair of policies (A, B) compared on ``metric`` (``q`` or ``auc``) over the runs they
-    share a world, noise level and repeat with: mean A − B with its 95 % stratified bootstrap
-    interval, share of pairs where A is higher, the probability of improvement with its 95 %
-    stratified bootstrap interval, two-sided Wilcoxon signed-rank p. A DataFrame."""
-    import pandas as pd
-
-    wide = ok.pivot_table(index=list(UNIT_COLUMNS), columns="policy", values=metric)
-    tasks = _tasks(wide)
-    rows = []
-    for a, b in itertools.combinations([p for p in policies if p in wide.columns], 2):
-        paired = wide[[a, b]].dropna()
-        result = compare_paired(paired[a].to_numpy(), paired[b].to_numpy(), rng, _tasks(paired))
-        improvement = probability_of_improvement_interval(wide[a], tasks, wide[b], tasks, rng)
-        rows.append(
-            {
-                "a": a,
-                "b": b,
-                "pairs": result.difference.n,
-                "diff_mean": result.difference.mean,
-                "diff_low": result.difference.low,
-                "diff_high": result.difference.high,
-                "a_better": result.a_better,
-                "p_improvement": improvement.mean,
-                "p_improvement_low": improvement.low,
-                "p_improvement_high": improvement.high,
-                "p_wilcoxon": result.p_value,
-            }
-        )
-    table = pd.DataFrame(rows)
-    if len(table):
-        # oracle pairs after the others, each group its own Holm family
-        oracle = table["a"].map(is_oracle_label) | table["b"].map(is_oracle_label)
-        table = table.assign(oracle_pair=oracle)
-        table = table.sort_values("oracle_pair", kind="stable", ignore_index=True)
-        table["p_holm"] = table.groupby("oracle_pair")["p_wilcoxon"].transform(holm)
-        table = table.drop(columns="oracle_pair")
-    return table
-
-
-def _strata(runs) -> list[tuple]:
-    """The stratum (world, noise level) of each run of a runs table: the bootstrap resamples
-    runs within these."""
-    return list(zip(runs["world"], runs["noise"], strict=True))
-
-
-def _tasks(wide) -> list[tuple]:
-    """The task (world, noise level) of each row of a table indexed by world, noise, repeat."""
-    index = wide.index
-    return list(zip(index.get_level_values("world"), index.get_level_values("noise"), strict=True))
 
 
 def _final_section(ok, data: Results, rng, out: Path) -> str:
@@ -359,9 +229,9 @@ def _final_section(ok, data: Results, rng, out: Path) -> str:
         [
             r.policy,
             r.runs,
-            _ci(Interval(r.q_mean, r.q_low, r.q_high, r.runs)),
-            _ci(Interval(r.q_iqm, r.q_iqm_low, r.q_iqm_high, r.runs)),
-            _ci(Interval(r.auc_mean, r.auc_low, r.auc_high, r.runs)),
+            ci_text(Interval(r.q_mean, r.q_low, r.q_high, r.runs)),
+            ci_text(Interval(r.q_iqm, r.q_iqm_low, r.q_iqm_high, r.runs)),
+            ci_text(Interval(r.auc_mean, r.auc_low, r.auc_high, r.runs)),
             f"{r.q_paper_mean:.4f}",
             f"{r.discovered_mean:.1%}",
             f"{r.steps_mean:.1f}",
@@ -399,103 +269,11 @@ def _final_section(ok, data: Results, rng, out: Path) -> str:
     for metric, label in (("q", "final Q"), ("auc", "AUC")):
         pairs = pairwise_table(ok, data.policies, metric, rng)
         pairs.to_csv(out / f"pairwise_{metric}.csv", index=False)
-        lines += ["", f"### Pairwise comparisons: {label}", "", _pairwise_text(pairs, label)]
+        lines += ["", f"### Pairwise comparisons: {label}", "", pairwise_text(pairs, label)]
     return "\n".join(lines)
 
 
-def _pairwise_text(pairs, label: str) -> str:
-    if pairs.empty:
-        return "Fewer than two policies."
-    rows = [
-        [
-            f"{r.a} − {r.b}",
-            r.pairs,
-            _ci(Interval(r.diff_mean, r.diff_low, r.diff_high, r.pairs), signed=True),
-            f"{r.a_better:.0%}",
-            f"{r.p_improvement:.2f} [{r.p_improvement_low:.2f}, {r.p_improvement_high:.2f}]",
-            _p(r.p_wilcoxon),
-            _p(r.p_holm),
-        ]
-        for r in pairs.itertuples()
-    ]
-    others = pairs[~(pairs["a"].map(is_oracle_label) | pairs["b"].map(is_oracle_label))]
-    tested = others[np.isfinite(others["p_wilcoxon"])]
-    note = power_note(
-        smallest_p_wilcoxon(int(tested["pairs"].max()) if len(tested) else 0),
-        len(tested),
-        "two-sided Wilcoxon signed-rank test",
-    )
-    return (
-        (note + "\n\n" if note else "")
-        + f"Runs paired by world, noise level and repeat (same seed). Difference of {label}, "
-        "share of pairs where the first policy is higher, probability of improvement P(A > B) "
-        "(per world and noise level, the chance that a run of A beats a run of B, ties ½; "
-        "averaged; 95 % interval: runs of A and B resampled within each world and noise level), "
-        "two-sided Wilcoxon signed-rank p, and that p Holm-adjusted over all the "
-        "pairs of this table (reject at α = 0.05 where the Holm p < 0.05).\n\n"
-        + markdown_table(
-            [
-                "A − B",
-                "pairs",
-                "mean difference [95% CI]",
-                "A higher",
-                "P(A > B) [95% CI]",
-                "p",
-                "p (Holm)",
-            ],
-            ranked_apart(rows),
-        )
-    )
-
-
 # -- Fig. 1 and Table II: viewpoint statistics as quality indicators ---------------------------------
-
-
-def indicator_tests_table(cuboids):
-    """Per run, metric and statistic: the one-sided Mann–Whitney test of Table I. ``cov`` (at
-    Q's setting, column ``cov_q``) on U_occ cuboids and ``l1`` on U_empty cuboids. A DataFrame
-    with the run's identity, metric, statistic, threshold, U, p, population sizes."""
-    import pandas as pd
-
-    from nbv_gym.metrics.indicators import indicator_tests
-
-    rows = []
-    cuboids = cuboids[cuboids["n_obs"] >= 1]  # the paper's tests: observed from at least once
-    for key, run in cuboids.groupby("key", sort=False):
-        occ = run["u_occ"].to_numpy(bool)
-        metrics = {
-            "cov": np.where(occ, run["cov_q"].to_numpy(float), np.nan),
-            "l1": np.where(~occ, run["l1"].to_numpy(float), np.nan),
-        }
-        stats = {s: run[s].to_numpy(float) for s in STATISTICS}
-        first = run.iloc[0]
-        identity = {c: first[c] for c in ("world", "asset", "noise", "policy", "repeat")}
-        for test in indicator_tests(metrics, stats):
-            rows.append(
-                {
-                    "key": key,
-                    **identity,
-                    "metric": test.metric,
-                    "statistic": test.statistic,
-                    "threshold": test.threshold,
-                    "u_statistic": test.u_statistic,
-                    "p_value": test.p_value,
-                    "n_at_or_above": test.n_at_or_above,
-                    "n_below": test.n_below,
-                }
-            )
-    return pd.DataFrame(rows)
-
-
-def table2(tests, by: tuple[str, ...] = ()):
-    """Share of tests with p < 0.05 per statistic (rows) and metric (columns), optionally per
-    group ``by`` (e.g. ``("asset", "noise")``): the paper's Table II. A DataFrame."""
-    keys = [*by, "statistic", "metric"]
-    shares = tests.groupby(keys, sort=False)["p_value"].agg(share_significant)
-    table = shares.unstack("metric")
-    if not by:
-        table = table.reindex([s for s in STATISTICS if s in table.index])
-    return table[[m for m in ("cov", "l1") if m in table.columns]]
 
 
 def _read_cuboids(path: Path, filters, columns=None):
@@ -556,63 +334,6 @@ def _fig1_lines(ok, data: Results, out: Path) -> list[str]:
     ]
 
 
-def statistic_bins(statistic: str, values: np.ndarray) -> np.ndarray:
-    """Bin edges for Fig. 1: log-spaced for n_obs, 1 m for r_min, one per sector for n_Ω, 0.05
-    for σ_θ."""
-    finite = values[np.isfinite(values)]
-    top = float(finite.max()) if finite.size else 1.0
-    if statistic == "n_obs":
-        return np.unique(np.round(np.geomspace(1, max(top, 2) + 1, 25)))
-    if statistic == "r_min":
-        return np.arange(0, np.ceil(max(top, 1)) + 1, 1.0)
-    if statistic == "n_omega":
-        return np.arange(0.5, max(top, 1) + 1.5, 1.0)
-    return np.linspace(0, 1, 21)
-
-
-def binned_means(values: np.ndarray, metric: np.ndarray, edges: np.ndarray, min_count: int = 5):
-    """(centres, means): the mean statistic and mean metric of each bin of ``edges`` holding at
-    least ``min_count`` finite pairs."""
-    keep = np.isfinite(values) & np.isfinite(metric)
-    values, metric = values[keep], metric[keep]
-    which = np.digitize(values, edges) - 1
-    inside = (which >= 0) & (which < len(edges) - 1)
-    counts = np.bincount(which[inside], minlength=len(edges) - 1)
-    sums_x = np.bincount(which[inside], values[inside], minlength=len(edges) - 1)
-    sums_y = np.bincount(which[inside], metric[inside], minlength=len(edges) - 1)
-    full = counts >= min_count
-    return sums_x[full] / counts[full], sums_y[full] / counts[full]
-
-
-def plot_fig1(cuboids, path: Path, title: str) -> None:
-    """Fig. 1 of the paper: mean cov and L1 against each statistic, per asset type, to ``path``."""
-    import matplotlib
-
-    assets = asset_order(cuboids["asset"])
-    shades = matplotlib.colormaps["Blues"](np.linspace(0.45, 1.0, max(len(assets), 1)))
-    fig = _figure(15, 6.5)
-    axes = fig.subplots(2, 4, squeeze=False)
-    occ = cuboids["u_occ"].to_numpy(bool)
-    for col, statistic in enumerate(STATISTICS):
-        values = cuboids[statistic].to_numpy(float)
-        edges = statistic_bins(statistic, values)
-        for row, (metric, mask) in enumerate((("cov_q", occ), ("l1", ~occ))):
-            ax = axes[row][col]
-            for asset, shade in zip(assets, shades, strict=True):
-                pick = mask & (cuboids["asset"].to_numpy() == asset)
-                x, y = binned_means(values[pick], cuboids[metric].to_numpy(float)[pick], edges)
-                ax.plot(x, y, "-o", ms=2.5, color=shade, label=asset or "(unknown)")
-            if statistic == "n_obs":
-                ax.set_xscale("log")
-            ax.set_xlabel(STATISTIC_LABELS[statistic])
-            ax.set_ylabel("mean cov" if metric == "cov_q" else "mean L1")
-            ax.grid(alpha=0.3)
-    axes[0][0].legend(fontsize=8)
-    fig.suptitle(f"Mean quality of reconstruction against viewpoint statistics ({title})")
-    fig.tight_layout()
-    save_figure(fig, path)
-
-
 def _table2_lines(ok, data: Results, out: Path) -> list[str]:
     chosen = [p for p in UNBIASED_POLICIES if p in set(ok["policy"])]
     note = "the random-frontier and random-free runs, as in the paper"
@@ -628,7 +349,7 @@ def _table2_lines(ok, data: Results, out: Path) -> list[str]:
     overall = table2(tests)
     overall.to_csv(out / "table2.csv")
     n_runs = tests["key"].nunique()
-    rows = [[STATISTIC_LABELS[s], *(_share(v) for v in overall.loc[s])] for s in overall.index]
+    rows = [[STATISTIC_LABELS[s], *(share_text(v) for v in overall.loc[s])] for s in overall.index]
     grouped = table2(tests, ("asset", "noise"))
     grouped.to_csv(out / "table2_by_asset_noise.csv")
     flat = grouped.unstack("statistic")
@@ -637,7 +358,7 @@ def _table2_lines(ok, data: Results, out: Path) -> list[str]:
             asset,
             noise,
             *(
-                _share(flat.loc[(asset, noise)].get((m, s), np.nan))
+                share_text(flat.loc[(asset, noise)].get((m, s), np.nan))
                 for m in ("cov", "l1")
                 for s in STATISTICS
             ),
@@ -666,18 +387,3 @@ def _table2_lines(ok, data: Results, out: Path) -> list[str]:
 
 
 # -- formatting ------------------------------------------------------------------------------------
-
-
-def _ci(interval: Interval, signed: bool = False) -> str:
-    sign = "+" if signed else ""
-    if not np.isfinite(interval.mean):
-        return "—"
-    return f"{interval.mean:{sign}.4f} [{interval.low:{sign}.4f}, {interval.high:{sign}.4f}]"
-
-
-def _p(value: float) -> str:
-    return "—" if not np.isfinite(value) else f"{value:.3g}"
-
-
-def _share(value: float) -> str:
-    return "—" if not np.isfinite(value) else f"{value:.2f}"

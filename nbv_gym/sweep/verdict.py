@@ -21,7 +21,7 @@ Claims and rules (α = 0.05):
   baseline) over all asset types get a one-sided Wilcoxon signed-rank test (H1: NBV higher), and
   the p-values of every pair and fraction — the Fig. 2 family — are Holm-adjusted together.
   *inconclusive (n = …)* when even the most extreme sample could not give an adjusted p < 0.05
-  (:func:`~nbv_gym.sweep.stats.smallest_p_wilcoxon` × family size); *not* when the mean
+  (:func:`~nbv_gym.reporting.inference.smallest_p_wilcoxon` × family size); *not* when the mean
   difference is not positive (a wrong sign is never *partly*); *reproduced* when NBV is
   significantly higher at every fraction and no asset × fraction cell has it significantly
   lower; *partly* when it is significantly higher at some fraction; *not* otherwise. The cells
@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.sweep.stats import (
+from nbv_gym.reporting.inference import (
     Interval,
     bootstrap_mean,
     can_reach,
@@ -143,7 +143,7 @@ def trend_rows(cuboids) -> list[dict]:
 
 
 def table2_rows(shares) -> list[dict]:
-    """Table II: one row per statistic and metric, ``shares`` as :func:`report.table2`."""
+    """Table II: one row per statistic and metric, ``shares`` as :func:`~nbv_gym.sweep.tables.table2`."""
     rows = []
     for (statistic, metric), paper in PAPER_TABLE2.items():
         ours = float(shares.loc[statistic, metric]) if statistic in shares.index else np.nan
@@ -169,7 +169,7 @@ def paired_at_fractions(runs, steps, column: str = "q_paper"):
     DataFrame indexed like ``runs`` with one column per fraction (NaN where not reached)."""
     import pandas as pd
 
-    from nbv_gym.sweep.stats import q_curve
+    from nbv_gym.reporting.inference import q_curve
 
     by_key = {key: group.sort_values("step") for key, group in steps.groupby("key", sort=False)}
     grid = np.asarray(FRACTIONS)

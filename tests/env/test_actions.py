@@ -9,7 +9,7 @@ import pytest
 
 import nbv_gym  # noqa: F401  (registers the environments)
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.tasks import TASK_IDS
+from nbv_gym.core.protocol import TASK_IDS
 from nbv_gym.env.actions import nearest_valid_goal, resolve_goal
 from nbv_gym.simulator import InvalidActionError
 

@@ -10,7 +10,7 @@ import gymnasium
 import pytest
 
 import nbv_gym  # noqa: F401  (registers the environments)
-from nbv_gym.core.tasks import BUDGET_SCANS, EXPLORE_MAX_STEPS, TASK_IDS
+from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS, TASK_IDS
 
 WORLD = "pp1-cuboids"
 #: Every id of the package, read from Gymnasium's registry rather than from our own constants.

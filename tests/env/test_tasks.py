@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import nbv_gym  # noqa: F401  (registers the environments)
-from nbv_gym.core.tasks import BUDGET_ID, BUDGET_SCANS, EXPLORE_ID
+from nbv_gym.core.protocol import BUDGET_ID, BUDGET_SCANS, EXPLORE_ID
 from nbv_gym.env import ExploreEnv
 from nbv_gym.policies import load_policy
 

@@ -7,7 +7,8 @@ import pytest
 
 from nbv_gym.core.errors import DataFileError
 from nbv_gym.core.grid import GridSpec
-from nbv_gym.mapping.occupancy import MAX_LOAD_VOXELS, OccupancyMap
+from nbv_gym.mapping.mapfile import MAX_LOAD_VOXELS, load_map, save_map
+from nbv_gym.mapping.occupancy import OccupancyMap
 from nbv_gym.mapping.statistics import ViewpointStatistics
 
 GRID = GridSpec((0.0, 0.0, 0.0), 0.5, (4, 4, 2))
@@ -19,7 +20,7 @@ def saved_map(tmp_path) -> dict[str, np.ndarray]:
     logodds = np.full(GRID.shape, np.nan, np.float32)
     logodds[1, 2, 0] = 0.85
     path = tmp_path / "map.npz"
-    OccupancyMap.from_logodds(GRID, logodds, **PARAMS, max_range_m=5.0).save(path)
+    save_map(OccupancyMap.from_logodds(GRID, logodds, **PARAMS, max_range_m=5.0), path)
     with np.load(path) as data:
         return dict(data)
 
@@ -30,7 +31,7 @@ def _write(tmp_path, arrays) -> str:
 
 
 def test_a_saved_map_loads_back(tmp_path, saved_map):
-    loaded = OccupancyMap.load(_write(tmp_path, saved_map))
+    loaded = load_map(_write(tmp_path, saved_map))
     assert loaded.grid == GRID and loaded.params["max_range_m"] == 5.0
 
 
@@ -49,7 +50,7 @@ def test_a_saved_map_loads_back(tmp_path, saved_map):
 )
 def test_maps_that_do_not_fit_are_refused(tmp_path, saved_map, change, message):
     with pytest.raises(DataFileError, match=message):
-        OccupancyMap.load(_write(tmp_path, {**saved_map, **change}))
+        load_map(_write(tmp_path, {**saved_map, **change}))
 
 
 def test_statistics_arrays_must_have_the_grid_shape(tmp_path):

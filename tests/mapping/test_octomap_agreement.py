@@ -12,7 +12,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from nbv_gym.bench.mapping import (
+from nbv_gym.core.pose import Pose
+from nbv_gym.mapping import MapConfig, OccupancyMap
+from nbv_gym.perf.mapping import (
     FREE,
     OCCUPIED,
     UNKNOWN,
@@ -21,8 +23,6 @@ from nbv_gym.bench.mapping import (
     our_states,
     synthetic_lidar,
 )
-from nbv_gym.core.pose import Pose
-from nbv_gym.mapping import MapConfig, OccupancyMap
 
 pyoctomap = pytest.importorskip("pyoctomap")
 

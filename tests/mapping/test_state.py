@@ -79,7 +79,7 @@ WALK = ((0.0, 0.0, 0.0), (3.0, 1.0, 0.7), (-2.0, 4.0, 2.0), (-5.0, -3.0, 4.0), (
 
 
 def walk_scans():
-    from nbv_gym.bench.mapping import synthetic_lidar
+    from nbv_gym.perf.mapping import synthetic_lidar
 
     lidar, rng = synthetic_lidar(n_azimuth=128), np.random.default_rng(3)
     return [lidar.scan(Pose(x, y, 0.0, yaw), rng) for x, y, yaw in WALK]

@@ -9,13 +9,8 @@ import pytest
 
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.metrics import MetricInputError
-from nbv_gym.metrics.cuboids import (
-    CuboidConfig,
-    QualityTracker,
-    coverage_offsets,
-    evaluate_cuboids,
-    q_paper,
-)
+from nbv_gym.metrics.cuboids import CuboidConfig, coverage_offsets, q_paper
+from nbv_gym.metrics.tracker import QualityTracker, evaluate_cuboids
 
 
 def _grid(shape=(10, 10, 10), value=0.3):

@@ -168,7 +168,7 @@ def _scene(count, rng):
 
 
 def test_bench_chamfer_is_the_same_definition():
-    from nbv_gym.bench.metrics import plain_chamfer
+    from nbv_gym.perf.metrics import plain_chamfer
 
     rng = np.random.default_rng(1)
     a, b = rng.random((200, 3)), rng.random((150, 3))

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from nbv_gym.metrics import MetricInputError
-from nbv_gym.metrics.cuboids import QualityTracker, occupied_cuboids
+from nbv_gym.metrics.cuboids import occupied_cuboids
+from nbv_gym.metrics.tracker import QualityTracker
 
 
 def test_a_voxel_list_gives_the_dense_grids_tracker_exactly():

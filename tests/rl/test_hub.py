@@ -15,13 +15,13 @@ yaml = pytest.importorskip("yaml")
 from typer.testing import CliRunner  # noqa: E402
 
 from nbv_gym.cli.main import app  # noqa: E402
-from nbv_gym.core.tasks import BUDGET_ID  # noqa: E402
+from nbv_gym.core.protocol import BUDGET_ID  # noqa: E402
 from nbv_gym.env.explore import ExploreEnv  # noqa: E402
 from nbv_gym.episode import run_episode  # noqa: E402
-from nbv_gym.hub import find_source  # noqa: E402
 from nbv_gym.policies import PolicyError, load_policy  # noqa: E402
 from nbv_gym.policies.registry import model_path  # noqa: E402
 from nbv_gym.rl.config import LearningConfig, TrainConfig  # noqa: E402
+from nbv_gym.rl.hub import find_source  # noqa: E402
 from nbv_gym.rl.train import train  # noqa: E402
 
 BUDGET = 4

@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("rl_zoo3")
 
 from nbv_gym.configs import config_file
-from nbv_gym.core.tasks import BUDGET_ID
+from nbv_gym.core.protocol import BUDGET_ID
 from nbv_gym.env.explore import ExploreEnv
 from nbv_gym.episode import make_env, run_episode
 from nbv_gym.policies import load_policy

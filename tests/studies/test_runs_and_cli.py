@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from nbv_gym.cli.main import app
-from nbv_gym.mapping import OccupancyMap
+from nbv_gym.mapping.mapfile import load_map
 from nbv_gym.studies import StudyError
 from nbv_gym.studies.runs import SCANS_NAME, find_runs, make_run, replay, run_map
 from tests.helpers import run_cli
@@ -15,7 +15,7 @@ from tests.helpers import run_cli
 
 def test_replayed_scans_rebuild_the_runs_map(tmp_path):
     folder = make_run("pp1-cuboids", 1, "closest-frontier", 0, 2, tmp_path / "a" / "run")
-    saved = OccupancyMap.load(folder / "map.npz").logodds
+    saved = load_map(folder / "map.npz").logodds
     rebuilt = replay(folder / SCANS_NAME, 0.1).logodds
     np.testing.assert_array_equal(np.isnan(rebuilt), np.isnan(saved))
     np.testing.assert_array_equal(rebuilt[~np.isnan(saved)], saved[~np.isnan(saved)])

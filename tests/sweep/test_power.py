@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.stats import mannwhitneyu, wilcoxon
 
-from nbv_gym.sweep.stats import (
+from nbv_gym.reporting.inference import (
     can_reach,
     power_note,
     smallest_p_mannwhitney,

@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from nbv_gym.reporting.inference import bootstrap_mean, q_auc, q_curve, share_significant
 from nbv_gym.sweep.folder import CUBOID_COLUMNS, RUN_COLUMNS, SweepError
 from nbv_gym.sweep.report import build_report
-from nbv_gym.sweep.stats import bootstrap_mean, q_auc, q_curve, share_significant
 
 # (policy, repeat) → the run's (discovered, Q) steps and whether its cuboids follow Table I's H1.
 RUNS = {

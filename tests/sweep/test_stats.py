@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from nbv_gym.sweep.stats import (
+from nbv_gym.reporting.inference import (
     bootstrap_iqm,
     bootstrap_mean,
     holm,
@@ -81,7 +81,7 @@ def test_probability_of_improvement_by_hand():
 def test_pairwise_table_adds_holm_and_probability_of_improvement():
     import pandas as pd
 
-    from nbv_gym.sweep.report import pairwise_table
+    from nbv_gym.sweep.tables import pairwise_table
 
     rows = []
     for world in ("w1", "w2"):
@@ -188,7 +188,7 @@ def test_performance_profile_by_hand():
 def test_report_intervals_resample_within_world_and_noise():
     import pandas as pd
 
-    from nbv_gym.sweep.report import final_table, pairwise_table
+    from nbv_gym.sweep.tables import final_table, pairwise_table
 
     # repeats of a (world, noise) agree; worlds differ: a stratified interval has nothing to
     # resample, while pooling the runs would mix the worlds' spread into it

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.tasks import BUDGET_SCANS
+from nbv_gym.core.protocol import BUDGET_SCANS
 from nbv_gym.sweep.config import SweepConfig
 
 BASE = {"worlds": ("pp1-cuboids",), "policies": ("closest-frontier",), "noise": (1,)}

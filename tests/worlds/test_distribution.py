@@ -13,7 +13,7 @@ import pytest
 from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.env import ExploreEnv
-from nbv_gym.metrics.cuboids import QualityTracker
+from nbv_gym.metrics.tracker import QualityTracker
 from nbv_gym.simulator import Simulator
 from nbv_gym.worlds import ASSET_TYPES, benchmark_names, cache_dir, load_spec
 from nbv_gym.worlds.distribution import (

@@ -118,7 +118,7 @@ def _timed(method, key: str, spent: dict[str, float], running: dict[str, int]):
 
 def _memory() -> dict[str, float]:
     """``env_rss_mb`` and ``env_rss_anon_mb`` measured in a fresh Python process."""
-    code = "from nbv_gym.bench.env import one_env_memory; one_env_memory()"
+    code = "from nbv_gym.perf.env import one_env_memory; one_env_memory()"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 

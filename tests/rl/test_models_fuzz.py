@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import zipfile
 
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -38,6 +39,8 @@ TEXT = st.one_of(
     st.sampled_from(["3600", "99999999999999999999", "-1", "{'a': Box(0, 1, (999999999999,), f)}",
                      "{'x': Discrete(3)}", "{'known': Box(0.0, 1.0, (, float32)}"]),
 )  # fmt: skip
+
+pytestmark = pytest.mark.fuzz
 
 
 @st.composite

@@ -9,6 +9,7 @@ import pytest
 
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.mapping import OccupancyMap
+from nbv_gym.mapping.mapfile import save_map
 from tests.helpers import run_cli
 
 BOX = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 1.0), 0.1)
@@ -21,7 +22,7 @@ def map_file(tmp_path):
     logodds = np.full(BOX.shape, np.nan, np.float32)
     logodds[3, 4, 5], logodds[70, 30, 12], logodds[10, 10, 10] = 2.0, 0.5, -1.5
     path = tmp_path / "map.npz"
-    OccupancyMap.from_logodds(BOX, logodds, **PARAMS).save(path)
+    save_map(OccupancyMap.from_logodds(BOX, logodds, **PARAMS), path)
     return path
 
 

@@ -186,8 +186,8 @@ def test_report_of_a_folder_of_run_outputs_is_refused(tmp_path):
 def test_a_probability_grid_outside_0_1_is_refused(tmp_path, values, message):
     from types import SimpleNamespace
 
-    from nbv_gym.cli.evaluate import load_probability
     from nbv_gym.metrics import MetricInputError
+    from nbv_gym.metrics.evaluation import load_probability
 
     prob = np.full((4, 4, 2), 0.5, np.float32)
     prob[1, 2, 1] = values

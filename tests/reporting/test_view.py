@@ -11,6 +11,7 @@ from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import Pose
 from nbv_gym.core.trajectory import read_trajectory, write_trajectory
 from nbv_gym.mapping import OccupancyMap, ViewpointStatistics
+from nbv_gym.mapping.mapfile import save_map
 from nbv_gym.reporting.view import ViewError, load_scene, write_view
 
 BOX = GridSpec.from_bounds((-2.0, -2.0, -1.0), (6.0, 2.0, 2.0), 0.1)
@@ -25,7 +26,7 @@ def run_folder(tmp_path):
     logodds = np.full(BOX.shape, np.nan, np.float32)
     for index, p in VOXELS.items():
         logodds[index] = np.log(p / (1 - p))
-    OccupancyMap.from_logodds(BOX, logodds, **PARAMS).save(tmp_path / "map.npz")
+    save_map(OccupancyMap.from_logodds(BOX, logodds, **PARAMS), tmp_path / "map.npz")
     statistics = ViewpointStatistics(GridSpec.from_bounds((-2.0, -2.0, 0.0), (6.0, 2.0, 2.0), 1.0),
                                      n_sectors=32, min_range_m=1.0, max_range_m=20.0,
                                      min_return_z_m=0.0)  # fmt: skip

@@ -36,6 +36,8 @@ VALUES = st.one_of(
     SCALARS, st.lists(SCALARS, max_size=4), st.dictionaries(KEYS, SCALARS, max_size=3)
 )
 
+pytestmark = pytest.mark.fuzz
+
 
 @st.composite
 def mutated_config(draw, base: dict) -> str:

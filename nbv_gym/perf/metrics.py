@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from nbv_gym.bench import BENCH_WORLD
+from nbv_gym.perf import BENCH_WORLD
 
 SCANS = 10
 WD_CUBOIDS = 64
@@ -47,7 +47,7 @@ def _q_update_ms(world, truth, grid) -> dict[str, float]:
     from nbv_gym.core.grid import GridSpec
     from nbv_gym.core.pose import Pose
     from nbv_gym.mapping import MapConfig, OccupancyMap
-    from nbv_gym.metrics.cuboids import QualityTracker
+    from nbv_gym.metrics.tracker import QualityTracker
     from nbv_gym.sensor.lidar import Lidar
 
     rng = np.random.default_rng(0)

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.core.outputs import writable_folder
-from nbv_gym.core.tasks import TASK_IDS
+from nbv_gym.core.protocol import TASK_IDS
 from nbv_gym.policies import PolicyError
 from nbv_gym.policies.registry import MODELS, model_path
 from nbv_gym.rl.config import TrainConfig, load_train_config
@@ -183,7 +183,7 @@ def summarise(rows: list[dict], config: TrainConfig, masked: bool, seed: int) ->
     ``n_eval_episodes`` and ``eval_datetime``, then the mean and 95 % stratified-bootstrap
     interval (episodes resampled within each world) of each of :data:`FIGURES` over all
     episodes and per world, and the episodes."""
-    from nbv_gym.sweep.stats import stratified_interval
+    from nbv_gym.reporting.inference import stratified_interval
 
     rng = np.random.default_rng(seed)
     returns = np.array([row["return"] for row in rows])

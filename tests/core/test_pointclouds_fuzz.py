@@ -17,6 +17,8 @@ pytest.importorskip("hypothesis")
 HUGE = st.one_of(
     st.integers(-5, 40), st.integers(-(2**70), 2**70), st.sampled_from([10**12, 2**63 - 1, 2**64])
 )
+
+pytestmark = pytest.mark.fuzz
 PLY_TYPES = ["char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8",
              "float64", "list uchar int", "list int float", "bogus"]  # fmt: skip
 

@@ -19,15 +19,15 @@ BENCH_WORLD = "pp1-trees"
 
 #: suite name → module holding its ``run(progress)``.
 SUITES: dict[str, str] = {
-    "foundation": "nbv_gym.bench.foundation",
-    "mapping": "nbv_gym.bench.mapping",
-    "metrics": "nbv_gym.bench.metrics",
-    "nbv": "nbv_gym.bench.nbv",
-    "env": "nbv_gym.bench.env",
-    "rl": "nbv_gym.bench.rl",
-    "references": "nbv_gym.bench.references",
-    "rl-cluster": "nbv_gym.bench.rlcluster",
-    "scale": "nbv_gym.bench.scale",
+    "foundation": "nbv_gym.perf.foundation",
+    "mapping": "nbv_gym.perf.mapping",
+    "metrics": "nbv_gym.perf.metrics",
+    "nbv": "nbv_gym.perf.nbv",
+    "env": "nbv_gym.perf.env",
+    "rl": "nbv_gym.perf.rl",
+    "references": "nbv_gym.perf.references",
+    "rl-cluster": "nbv_gym.perf.rlcluster",
+    "scale": "nbv_gym.perf.scale",
 }
 
 

@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from nbv_gym.bench import BENCH_WORLD, Progress
+from nbv_gym.perf import BENCH_WORLD, Progress
 
 SCANS = 200
 

@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from nbv_gym.bench import BENCH_WORLD
+from nbv_gym.perf import BENCH_WORLD
 
 WARMUP_STEPS = 4
 REPEATS = 5

@@ -20,7 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from nbv_gym.bench import BENCH_WORLD
+from nbv_gym.perf import BENCH_WORLD
 
 N_ENVS = 2
 ROUNDS = 4

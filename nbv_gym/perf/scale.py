@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.bench.env import PARTS, _status_mib, _time_parts
+from nbv_gym.perf.env import PARTS, _status_mib, _time_parts
 
 #: window side (m) → number of assets: the benchmark's density, 50 assets per 60 m × 60 m.
 WORLDS = {60: 50, 120: 200, 240: 800}
@@ -62,7 +62,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
             progress(f"{window} m window, {n_assets} assets: {RESETS} resets, {STEPS} steps")
             spec = Path(folder) / f"scale-{window}m.toml"
             spec.write_text(spec_text(window, n_assets))
-            code = f"from nbv_gym.bench.scale import one_world; one_world({str(spec)!r})"
+            code = f"from nbv_gym.perf.scale import one_world; one_world({str(spec)!r})"
             done = subprocess.run(
                 [sys.executable, "-c", code], capture_output=True, text=True, check=True
             )

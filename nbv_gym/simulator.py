@@ -9,12 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.core.config import check
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
-from nbv_gym.core.pose import NOISE_LEVELS, Pose
+from nbv_gym.core.pose import Pose
 from nbv_gym.core.progress import say_if_compiling
-from nbv_gym.core.protocol import EXPLORE_MAX_STEPS
+from nbv_gym.core.protocol import EpisodeConfig, check_noise_level
 from nbv_gym.mapping import (
     ExplorationState,
     MappingConfig,
@@ -63,37 +62,11 @@ def _describe(value: object) -> str:
 
 
 @dataclass(frozen=True)
-class EpisodeConfig:
-    """When an episode ends and how steps are rewarded.
-
-    An episode terminates when the discovered fraction reaches ``discovered_target`` (never when
-    it is None: the budget task) and is truncated after ``max_steps`` steps or when no goal is
-    valid. Reward = ΔQ − ``path_penalty_per_m`` · path length of the step. The robot starts at
-    ``start_xy_m`` heading ``start_yaw_rad``.
-    """
-
-    max_steps: int = EXPLORE_MAX_STEPS
-    discovered_target: float | None = 0.70
-    path_penalty_per_m: float = 0.0
-    start_xy_m: tuple[float, float] = (0.0, 0.0)
-    start_yaw_rad: float = 0.0
-
-    def __post_init__(self) -> None:
-        check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
-        check(
-            self.discovered_target is None or 0 < self.discovered_target <= 1,
-            "discovered_target",
-            "must be in (0, 1], or None for no termination",
-        )
-        check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
-
-
-@dataclass(frozen=True)
 class SimulatorConfig:
     """Everything one exploration episode depends on, besides the seed and the policy.
 
     ``world`` is a benchmark world name or a spec file path; ``noise`` the localisation-noise
-    level 0, 1 or 2 (docs/protocol.md#lidar).
+    level, one of :data:`~nbv_gym.core.protocol.NOISE_LEVELS` (docs/protocol.md#lidar).
     """
 
     world: str = "pp1-trees"
@@ -104,7 +77,7 @@ class SimulatorConfig:
     episode: EpisodeConfig = field(default_factory=EpisodeConfig)
 
     def __post_init__(self) -> None:
-        check(self.noise in NOISE_LEVELS, "noise", f"expected 0, 1 or 2, got {self.noise!r}")
+        check_noise_level(self.noise)
 
 
 @dataclass(frozen=True)

@@ -9,11 +9,12 @@ import sys
 
 import pytest
 
+from nbv_gym.core.protocol import EpisodeConfig
 from nbv_gym.env.explore import EnvConfig, ExploreEnv
 from nbv_gym.env.views import PrivilegedInfoError
 from nbv_gym.episode import make_env, run_episode
 from nbv_gym.policies import MODELS, POLICIES, is_oracle, load_policy
-from nbv_gym.simulator import EpisodeConfig, SimulatorConfig
+from nbv_gym.simulator import SimulatorConfig
 
 WORLD = "pp1-cuboids"
 

@@ -147,11 +147,11 @@ def part_runs(
 
 def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
     """One run's entry of the scorecard from its sweep record (``run`` row and ``steps``)."""
+    from nbv_gym.core.protocol import DISCOVERED_TARGET
     from nbv_gym.reporting.inference import q_curve
-    from nbv_gym.simulator import EpisodeConfig
 
     run, steps = record["run"], record["steps"]
-    target = EpisodeConfig().discovered_target
+    target = DISCOVERED_TARGET
     discovered = [step["discovered"] for step in steps]
     q_paper_70 = q_curve(discovered, [step["q_paper"] for step in steps], [target])[0]
     return {

@@ -33,7 +33,13 @@ from typing import Any
 from nbv_gym.benchmark.testsplit import split_worlds
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import UnknownNameError
-from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS, check_task, task_episode
+from nbv_gym.core.protocol import (
+    BUDGET_SCANS,
+    EXPLORE_MAX_STEPS,
+    NOISE_LEVELS,
+    check_task,
+    task_episode,
+)
 from nbv_gym.worlds.spec import WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
@@ -57,7 +63,7 @@ class Part:
     split: str
     task: str
     worlds: tuple[str | WorldSpec, ...]
-    noise: tuple[int, ...] = (0, 1, 2)
+    noise: tuple[int, ...] = tuple(NOISE_LEVELS)
     repeats: int = 3
     budget_scans: int = BUDGET_SCANS
     max_steps: int = EXPLORE_MAX_STEPS

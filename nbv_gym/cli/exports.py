@@ -11,7 +11,7 @@ from typing import Annotated
 import typer
 
 from nbv_gym.cli.options import BudgetScansOption, MaxStepsOption, TaskOption, task_of
-from nbv_gym.cli.params import COUNT, FINITE, NOISE_LEVEL, POSITIVE_COUNT, PROBABILITY
+from nbv_gym.cli.params import COUNT, FINITE, NOISE_HELP, NOISE_LEVEL, POSITIVE_COUNT, PROBABILITY
 from nbv_gym.mapping.mapfile import load_map
 
 
@@ -113,9 +113,7 @@ def record(
     world: Annotated[str, typer.Option(help="World name or spec file.")],
     out: Annotated[Path, typer.Option(help="Folder of the Minari dataset.")],
     episodes: Annotated[int, typer.Option(help="Episodes to record.", parser=POSITIVE_COUNT)] = 1,
-    noise: Annotated[
-        int, typer.Option(help="Localisation-noise level 0, 1 or 2.", parser=NOISE_LEVEL)
-    ] = 1,
+    noise: Annotated[int, typer.Option(help=NOISE_HELP, parser=NOISE_LEVEL)] = 1,
     seed: Annotated[
         int, typer.Option(help="Seed of the first episode (then +1 each).", parser=COUNT)
     ] = 0,

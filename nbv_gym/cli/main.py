@@ -9,7 +9,7 @@ from typing import Annotated, NoReturn
 import typer
 
 from nbv_gym.cli.options import BudgetScansOption, MaxStepsOption, TaskOption, task_of
-from nbv_gym.cli.params import COUNT, NOISE_LEVEL
+from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import describe_os_error
@@ -173,9 +173,7 @@ def run(
             "files (a model zip is a pickle): use only ones you trust."
         ),
     ] = "closest-frontier",
-    noise: Annotated[
-        int, typer.Option(help="Localisation-noise level 0, 1 or 2.", parser=NOISE_LEVEL)
-    ] = 1,
+    noise: Annotated[int, typer.Option(help=NOISE_HELP, parser=NOISE_LEVEL)] = 1,
     seed: Annotated[int, typer.Option(help="Episode seed.", parser=COUNT)] = 0,
     task: TaskOption = None,
     budget_scans: BudgetScansOption = None,
@@ -210,11 +208,11 @@ def run(
     """
 
     from nbv_gym.core.outputs import claim_folder, staged_folder
-    from nbv_gym.core.protocol import task_episode
+    from nbv_gym.core.protocol import EpisodeConfig, task_episode
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import is_oracle, load_policy
-    from nbv_gym.simulator import EpisodeConfig, SimulatorConfig
+    from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.worlds import load_spec
 
     task, budget_scans = task_of(policy, task, budget_scans, max_steps)

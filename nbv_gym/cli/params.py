@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+from nbv_gym.core.protocol import NOISE_LEVELS
+
 
 def number(kind: type, low: float | None = None, high: float | None = None, above: bool = False):
     """A parser of ``kind`` (``int`` or ``float``) values: finite, ≥ ``low`` (> ``low`` when
@@ -38,7 +40,9 @@ POSITIVE_COUNT: Callable = number(int, 1)
 #: Points sampled on a world's surfaces (memory grows with them: about 1 GB per 10 million).
 SAMPLE_POINTS: Callable = number(int, 1, 20_000_000)
 #: A localisation-noise level.
-NOISE_LEVEL: Callable = number(int, 0, 2)
+NOISE_LEVEL: Callable = number(int, min(NOISE_LEVELS), max(NOISE_LEVELS))
+#: The help text of a noise-level option.
+NOISE_HELP = f"Localisation-noise level: {', '.join(map(str, NOISE_LEVELS))}."
 #: Any finite real number (a height, metres).
 FINITE: Callable = number(float)
 #: A length or duration > 0 (metres, minutes).

@@ -8,9 +8,7 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.config import check
-
-#: (σ_p metres, σ_q radians) of the paper's three localisation-noise levels.
-NOISE_LEVELS: dict[int, tuple[float, float]] = {0: (0.0, 0.0), 1: (0.005, 0.005), 2: (0.05, 0.01)}
+from nbv_gym.core.protocol import NOISE_LEVELS, check_noise_level
 
 
 @dataclass(frozen=True)
@@ -54,8 +52,8 @@ class LocalisationNoise:
 
     @classmethod
     def level(cls, level: int) -> LocalisationNoise:
-        """The paper's noise level 0 (perfect), 1 or 2."""
-        check(level in NOISE_LEVELS, "noise", f"expected one of 0, 1, 2, got {level!r}")
+        """The paper's noise level ``level`` (0: perfect; :data:`~nbv_gym.core.protocol.NOISE_LEVELS`)."""
+        check_noise_level(level)
         return cls(*NOISE_LEVELS[level])
 
     def perturb(self, pose: Pose, rng: np.random.Generator) -> Pose:

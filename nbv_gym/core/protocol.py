@@ -1,8 +1,11 @@
-"""The two tasks of nbv-gym (docs/protocol.md#tasks) and their Gymnasium ids (registered on ``import nbv_gym``).
+"""The benchmark's protocol in one place (docs/protocol.md#tasks): the tasks and their Gymnasium
+ids (registered on ``import nbv_gym``), their numbers, the localisation-noise levels and the
+episode config every task is built from.
 
-- ``explore`` — ``nbv_gym/Explore-v0``, the paper's protocol: an episode terminates at 70 %
-  of the ground discovered and is truncated at :data:`EXPLORE_MAX_STEPS` steps.
-- ``budget`` — ``nbv_gym/ExploreBudget-v0``, equal effort: a fixed budget of scans
+- ``explore`` — ``nbv_gym/Explore-v0``, the paper's protocol: an episode terminates at
+  :data:`DISCOVERED_TARGET` of the ground discovered and is truncated at
+  :data:`EXPLORE_MAX_STEPS` steps.
+- ``budget`` — ``nbv_gym/ExploreBudget-v0``, equal scans with travel free: a fixed budget of scans
   (:data:`BUDGET_SCANS` by default), never terminated by the discovered fraction, truncated at the
   budget. The reward is ΔQ in both, so a budget episode's return is Q after the budget minus Q
   after the first scan; its score is Q after the budget (and the area under Q against scans).
@@ -12,9 +15,10 @@ This module imports nothing heavy: ``import nbv_gym`` reads it to register the i
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
+from nbv_gym.core.config import check
 from nbv_gym.core.errors import ConfigError
 
 TASKS = ("explore", "budget")
@@ -30,6 +34,42 @@ EXPLORE_MAX_STEPS = 100
 #: closest-frontier 9–23 (median 15): after 12 scans every random-frontier episode has passed 70 %
 #: and Q still rises for every policy, so the budget rewards quality per scan, not discovery.
 BUDGET_SCANS = 12
+#: The explore task ends when this fraction of the ground is discovered (the paper's 70 %).
+DISCOVERED_TARGET = 0.70
+#: (σ_p metres, σ_q radians) of the paper's three localisation-noise levels.
+NOISE_LEVELS: dict[int, tuple[float, float]] = {0: (0.0, 0.0), 1: (0.005, 0.005), 2: (0.05, 0.01)}
+
+
+def check_noise_level(level: object, key: str = "noise") -> None:
+    """Raise :class:`ConfigError` (naming ``key``) unless ``level`` is one of :data:`NOISE_LEVELS`."""
+    levels = ", ".join(map(str, NOISE_LEVELS))
+    check(level in NOISE_LEVELS, key, f"expected one of {levels}, got {level!r}")
+
+
+@dataclass(frozen=True)
+class EpisodeConfig:
+    """When an episode ends and how steps are rewarded.
+
+    An episode terminates when the discovered fraction reaches ``discovered_target`` (never when
+    it is None: the budget task) and is truncated after ``max_steps`` steps or when no goal is
+    valid. Reward = ΔQ − ``path_penalty_per_m`` · path length of the step. The robot starts at
+    ``start_xy_m`` heading ``start_yaw_rad``.
+    """
+
+    max_steps: int = EXPLORE_MAX_STEPS
+    discovered_target: float | None = DISCOVERED_TARGET
+    path_penalty_per_m: float = 0.0
+    start_xy_m: tuple[float, float] = (0.0, 0.0)
+    start_yaw_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
+        check(
+            self.discovered_target is None or 0 < self.discovered_target <= 1,
+            "discovered_target",
+            "must be in (0, 1], or None for no termination",
+        )
+        check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
 
 
 def task_episode(task: str, episode: Any, budget_scans: int | None = None) -> Any:

@@ -26,12 +26,12 @@ from gymnasium import spaces
 
 from nbv_gym.core.config import check, from_dict, merge, to_dict
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.protocol import task_episode
+from nbv_gym.core.protocol import EpisodeConfig, task_episode
 from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
 from nbv_gym.nbv import NbvConfig
-from nbv_gym.simulator import EpisodeConfig, Simulator, SimulatorConfig, StepOutcome, goal_index
+from nbv_gym.simulator import Simulator, SimulatorConfig, StepOutcome, goal_index
 from nbv_gym.worlds.distribution import POOL_SIZE, WorldDistribution, is_distribution
 
 

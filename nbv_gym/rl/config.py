@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from nbv_gym.core.config import check, from_dict, read_toml
-from nbv_gym.core.protocol import BUDGET_SCANS, TASKS
+from nbv_gym.core.protocol import BUDGET_SCANS, TASKS, check_noise_level
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
 
@@ -147,7 +147,7 @@ class TrainConfig:
         check(self.world_pool_size >= 1, "world_pool_size", "must be ≥ 1")
         check(self.episodes_per_world >= 1, "episodes_per_world", "must be ≥ 1")
         check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
-        check(self.noise in (0, 1, 2), "noise", f"expected 0, 1 or 2, got {self.noise!r}")
+        check_noise_level(self.noise)
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
         check(

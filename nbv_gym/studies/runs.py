@@ -62,10 +62,11 @@ class ScanLog:
 def make_run(world: str, noise: int, policy: str, seed: int, max_steps: int, out: Path) -> Path:
     """Run ``policy`` for ``max_steps`` scans after the first (no early termination) on ``world``
     at localisation noise ``noise`` from ``seed``; write the run folder and its scans to ``out``."""
+    from nbv_gym.core.protocol import EpisodeConfig
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import load_policy
-    from nbv_gym.simulator import EpisodeConfig, SimulatorConfig
+    from nbv_gym.simulator import SimulatorConfig
 
     agent = load_policy(policy)
     episode = EpisodeConfig(max_steps=max_steps, discovered_target=1.0)

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from nbv_gym.core.config import check
+from nbv_gym.core.protocol import NOISE_LEVELS, check_noise_level
 
 PP1_WORLDS = ("pp1-cuboids", "pp1-crosses", "pp1-helicoids", "pp1-trees")
 
@@ -24,7 +25,7 @@ class WdStudyConfig:
 
     worlds: tuple[str, ...] = PP1_WORLDS
     share_worlds: tuple[str, ...] = ("pp1-cuboids", "pp1-trees")
-    noise_levels: tuple[int, ...] = (0, 1, 2)
+    noise_levels: tuple[int, ...] = tuple(NOISE_LEVELS)
     resolutions_m: tuple[float, ...] = (0.1, 0.05)
     cuboids: int = 200
     share_cuboids: int = 300
@@ -37,11 +38,8 @@ class WdStudyConfig:
         check(self.cuboids >= 1, "cuboids", f"must be >= 1, got {self.cuboids}")
         check(self.share_cuboids >= 1, "share_cuboids", f"must be >= 1, got {self.share_cuboids}")
         check(self.max_steps >= 1, "max_steps", f"must be >= 1, got {self.max_steps}")
-        check(
-            all(n in (0, 1, 2) for n in self.noise_levels),
-            "noise_levels",
-            f"levels are 0, 1 or 2, got {self.noise_levels}",
-        )
+        for i, level in enumerate(self.noise_levels):
+            check_noise_level(level, f"noise_levels[{i}]")
         from nbv_gym.studies.wd_analysis import study_grid
 
         for res in self.resolutions_m:

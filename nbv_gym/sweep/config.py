@@ -24,7 +24,14 @@ from typing import Any
 from nbv_gym.core.config import check, from_dict, merge, read_toml, to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.names import check_name
-from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS, check_task, task_episode
+from nbv_gym.core.protocol import (
+    BUDGET_SCANS,
+    EXPLORE_MAX_STEPS,
+    NOISE_LEVELS,
+    check_noise_level,
+    check_task,
+    task_episode,
+)
 from nbv_gym.policies import POLICIES
 
 #: The seven policies of the paper, in its order (the registry's order).
@@ -56,7 +63,7 @@ class SweepConfig:
 
     name: str = "sweep"
     worlds: tuple[str, ...]
-    noise: tuple[int, ...] = (0, 1, 2)
+    noise: tuple[int, ...] = tuple(NOISE_LEVELS)
     policies: tuple[str, ...]
     repeats: int = 3
     seed: int = 0
@@ -73,7 +80,7 @@ class SweepConfig:
         check(bool(self.noise), "noise", "name at least one noise level")
         check(bool(self.policies), "policies", "name at least one policy")
         for i, level in enumerate(self.noise):
-            check(level in (0, 1, 2), f"noise[{i}]", f"expected 0, 1 or 2, got {level!r}")
+            check_noise_level(level, f"noise[{i}]")
         for key in ("worlds", "noise", "policies"):
             values = getattr(self, key)
             duplicates = sorted({str(v) for v in values if values.count(v) > 1})

@@ -130,9 +130,9 @@ def oracle_labels(runs) -> dict[str, str]:
 def _config_facts(path: Path) -> tuple[float, list[str]]:
     """The discovered target and policy order of the folder's sweep.toml (defaults if absent)."""
     from nbv_gym.core.config import read_toml
-    from nbv_gym.simulator import EpisodeConfig
+    from nbv_gym.core.protocol import DISCOVERED_TARGET
 
-    target = EpisodeConfig().discovered_target
+    target = DISCOVERED_TARGET
     if not path.exists():
         return target, []
     data = read_toml(path, "sweep.toml")

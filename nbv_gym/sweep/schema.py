@@ -30,7 +30,7 @@ IDENTITY = (
     Column("key", "—", "run key world/noiseN/policy/repR"),
     Column("world", "—", "benchmark world name or spec file"),
     Column("asset", "—", "asset type of the world: cuboids, crosses, helicoids, trees or mixed"),
-    Column("noise", "index", "localisation-noise level 0, 1 or 2"),
+    Column("noise", "index", "localisation-noise level (0: none, 2: the most)"),
     Column("policy", "—", "policy name (or module:Class, sb3:PATH)"),
     Column("repeat", "index", "repeat number of this world, noise level and policy"),
 )

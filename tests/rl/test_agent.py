@@ -16,13 +16,14 @@ pytest.importorskip("sb3_contrib")
 from gymnasium import spaces
 
 from nbv_gym.core.errors import MissingExtraError
+from nbv_gym.core.protocol import EpisodeConfig
 from nbv_gym.env.explore import EnvConfig
 from nbv_gym.episode import make_env, run_episode
 from nbv_gym.policies import PolicyError, load_policy, required_layers
 from nbv_gym.rl.agent import SB3Policy, check_spaces
 from nbv_gym.rl.config import LearningConfig, TrainConfig
 from nbv_gym.rl.train import require_rl, train
-from nbv_gym.simulator import EpisodeConfig, SimulatorConfig
+from nbv_gym.simulator import SimulatorConfig
 
 
 @pytest.fixture(scope="module")

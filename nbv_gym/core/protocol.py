@@ -34,6 +34,8 @@ EXPLORE_MAX_STEPS = 100
 #: closest-frontier 9–23 (median 15): after 12 scans every random-frontier episode has passed 70 %
 #: and Q still rises for every policy, so the budget rewards quality per scan, not discovery.
 BUDGET_SCANS = 12
+#: The voxel edge of the map and of the worlds' ground truth, metres (``MapConfig.resolution_m``).
+RESOLUTION_M = 0.1
 #: The explore task ends when this fraction of the ground is discovered (the paper's 70 %).
 DISCOVERED_TARGET = 0.70
 #: (σ_p metres, σ_q radians) of the paper's three localisation-noise levels.

@@ -46,15 +46,15 @@ class OptionalLayers:
         self.sim = sim
         wants_gains = any(name in (*GAIN_LAYERS, *VOLUMETRIC_LAYERS) for name in names)
         self.names = tuple(dict.fromkeys((*names, *([CANDIDATES_LAYER] if wants_gains else []))))
-        voxel_res = sim.config.mapping.map.resolution_m
+        resolution_m = sim.config.mapping.map.resolution_m
         self.config = config
         self.sensor = NbvSensor.of(sim.config.lidar, sim.config.mapping)
         self.predictor = (
-            GainPredictor(sim.goal_grid, config, voxel_res, self.sensor) if self.names else None
+            GainPredictor(sim.goal_grid, config, resolution_m, self.sensor) if self.names else None
         )
         self.gains = tuple(name for name in self.names if name in GAIN_LAYERS)
         self.volumetric = tuple(name for name in self.names if name in VOLUMETRIC_LAYERS)
-        self.totals = VoxelTotals(sim.goal_grid, voxel_res) if self.volumetric else None
+        self.totals = VoxelTotals(sim.goal_grid, resolution_m) if self.volumetric else None
         self._layers: dict[str, np.ndarray] = {}
         self._before: tuple[np.ndarray, ...] | None = None
         self._calibration = self._unknown()

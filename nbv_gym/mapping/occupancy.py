@@ -23,6 +23,7 @@ from nbv_gym.core.arrays import BoolArray, FloatArray, finite_rows
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import ConfigError, NbvGymError, PoseError
 from nbv_gym.core.grid import GridSpec
+from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.mapping.blocks import gather_levels, gather_logodds, mark_reaching, project_columns
 from nbv_gym.mapping.columns import NO_COLUMNS, ColumnCounts
 from nbv_gym.mapping.probability import new_cache, probabilities, probabilities_in_place
@@ -31,6 +32,7 @@ from nbv_gym.mapping.tally import NO_LOG, CellTally
 from nbv_gym.mapping.traversal import (
     BRICK,
     OUTSIDE,
+    TILE,
     axis_offsets,
     fill_window_tables,
     insert_scan,
@@ -50,7 +52,7 @@ class MapConfig:
     A voxel is occupied iff its probability is ≥ ``p_occupied``; unknown voxels have probability 0.5.
     """
 
-    resolution_m: float = 0.1
+    resolution_m: float = RESOLUTION_M
     low_m: tuple[float, float, float] = (-32.0, -32.0, -1.0)
     high_m: tuple[float, float, float] = (32.0, 32.0, 8.0)
     p_hit: float = 0.7
@@ -483,7 +485,7 @@ class OccupancyMap:
         (4 z layers × 4 × 4 tiles) and voxel in the tile (4 × 4); voxel (i, j, k) is at
         i = (BX·4 + X)·4 + x, j = (BY·4 + Y)·4 + y, k = BZ·4 + z."""
         bx, by, bz = self._bricks
-        return self._store.reshape(bz, bx, by, 4, 4, 4, 4, 4)
+        return self._store.reshape(bz, bx, by, BRICK[2], TILE, TILE, TILE, TILE)
 
     def _dense(self, lo, hi) -> np.ndarray:
         """float32 log-odds (NaN = unknown) of the voxels ``lo ≤ (i, j, k) < hi`` in (x, y, z)
@@ -502,9 +504,10 @@ class OccupancyMap:
         """Replace the whole map by (nx, ny, nz) float32 log-odds (NaN = unknown)."""
         nx, ny, nz = self.grid.shape
         bx, by, bz = self._bricks
-        padded = np.full((bx * 16, by * 16, bz * 4), np.nan, np.float32)
+        padded = np.full((bx * BRICK[0], by * BRICK[1], bz * BRICK[2]), np.nan, np.float32)
         padded[:nx, :ny, :nz] = logodds
-        bricked = padded.reshape(bx, 4, 4, by, 4, 4, bz, 4).transpose(6, 0, 3, 7, 1, 4, 2, 5)
+        bricked = padded.reshape(bx, TILE, TILE, by, TILE, TILE, bz, BRICK[2])
+        bricked = bricked.transpose(6, 0, 3, 7, 1, 4, 2, 5)
         bricked = encoded(bricked.ravel())
         known = np.flatnonzero(bricked.view(np.uint32))  # write only the pages that hold voxels
         self._pages.zero(0, self._store.size)
@@ -520,7 +523,9 @@ class OccupancyMap:
         elif threshold > 0:
             keep &= bricks >= np.float32(logit(threshold))
         bz, bx, by, z, tx, ty, x, y = np.nonzero(keep)
-        index = np.column_stack([(bx * 4 + tx) * 4 + x, (by * 4 + ty) * 4 + y, bz * 4 + z])
+        index = np.column_stack(
+            [(bx * TILE + tx) * TILE + x, (by * TILE + ty) * TILE + y, bz * BRICK[2] + z]
+        )
         order = np.lexsort(index.T[::-1])
         return index[order], decoded(bricks[keep][order])
 

@@ -26,8 +26,11 @@ from numba import njit
 from nbv_gym.mapping.store import is_known, stored
 
 _BIG = 1e300
-#: Voxels per brick side along x, y and z (16 · 16 · 4 = BLOCK values: one page).
-BRICK = (16, 16, 4)
+#: Voxels per tile side (a tile is TILE × TILE (x, y) voxels: one 64-byte cache line of float32).
+TILE = 4
+#: Voxels per brick side along x, y and z: TILE × TILE tiles of TILE layers (16 · 16 · 4 = BLOCK
+#: values: one page). The bit fields of :func:`axis_offsets` are written for these sizes.
+BRICK = (TILE * TILE, TILE * TILE, TILE)
 
 
 def axis_offsets(bricks: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -19,24 +19,24 @@ class OcclusionGrid:
 
     Args:
         grid: the statistics grid G (cells a whole number of voxels, aligned to the map).
-        voxel_res: the map's voxel size, metres.
+        resolution_m: the map's voxel size, metres.
         occluding_probability: threshold p of an occluding voxel.
     """
 
     def __init__(
         self,
         grid: GridSpec,
-        voxel_res: float = MapConfig.resolution_m,
+        resolution_m: float = MapConfig.resolution_m,
         occluding_probability: float = 0.8,
     ):
         if not 0 < occluding_probability < 1:
             raise ConfigError(
                 f"occluding_probability: must be in (0, 1), got {occluding_probability}"
             )
-        factor = grid.res / voxel_res
+        factor = grid.res / resolution_m
         if round(factor) < 1 or abs(factor - round(factor)) > 1e-6:
             raise ConfigError(
-                f"G's {grid.res} m cells must be a whole number of {voxel_res} m voxels"
+                f"G's {grid.res} m cells must be a whole number of {resolution_m} m voxels"
             )
         self.grid = grid
         self.threshold_logodds = logit(occluding_probability)

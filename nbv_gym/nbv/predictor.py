@@ -26,7 +26,7 @@ class GainPredictor:
     Args:
         grid: the statistics grid G (its x, y cells are the goals).
         config: the NBV config.
-        voxel_res: the map's voxel size, metres.
+        resolution_m: the map's voxel size, metres.
         sensor: the sensor predicted for (default: :meth:`NbvSensor.default`).
 
     Use: :meth:`reset` at the start of an episode, :meth:`observe` after each scan with the map and
@@ -37,14 +37,14 @@ class GainPredictor:
         self,
         grid: GridSpec,
         config: NbvConfig,
-        voxel_res: float = MapConfig.resolution_m,
+        resolution_m: float = MapConfig.resolution_m,
         sensor: NbvSensor | None = None,
     ):
         self.grid = grid
         self.config = config
         self.sensor = sensor or NbvSensor.default()
         config.sight_model(self.sensor)  # checks config and sensor together
-        self.occlusion = OcclusionGrid(grid, voxel_res, config.blocking_probability)
+        self.occlusion = OcclusionGrid(grid, resolution_m, config.blocking_probability)
         self._centres = goal_centres_xy(grid)
 
     def reset(self) -> None:

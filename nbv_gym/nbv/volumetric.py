@@ -55,17 +55,17 @@ class VoxelTotals:
 
     Args:
         grid: the statistics grid G (cells a whole number of voxels, aligned to the map).
-        voxel_res: the map's voxel size, metres.
+        resolution_m: the map's voxel size, metres.
 
     Attributes:
         table: (nx · ny · nz, 2) float64 per cell (C order): unknown voxels, entropy in bits.
         blocking: the :class:`~nbv_gym.nbv.occlusion.OcclusionGrid` of occupied cells.
     """
 
-    def __init__(self, grid: GridSpec, voxel_res: float = MapConfig.resolution_m):
+    def __init__(self, grid: GridSpec, resolution_m: float = MapConfig.resolution_m):
         self.grid = grid
-        self.blocking = OcclusionGrid(grid, voxel_res, BLOCKING_PROBABILITY)
-        self.voxels_per_cell = round(grid.res / voxel_res) ** 3
+        self.blocking = OcclusionGrid(grid, resolution_m, BLOCKING_PROBABILITY)
+        self.voxels_per_cell = round(grid.res / resolution_m) ** 3
         self.table = np.empty((grid.size, 2))
         self.reset()
 

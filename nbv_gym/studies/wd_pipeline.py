@@ -249,11 +249,10 @@ def _limit(world, truth, res, config, ideal) -> dict:
 
 
 def _ideal_limits(ideal: dict[str, IdealResult]) -> list[dict]:
-    from nbv_gym.worlds.world import GROUND_TRUTH_RES_M
+    from nbv_gym.core.protocol import RESOLUTION_M
 
     return [
-        _limit_row(r.world, r.asset, GROUND_TRUTH_RES_M, r.wd_star, len(r.index))
-        for r in ideal.values()
+        _limit_row(r.world, r.asset, RESOLUTION_M, r.wd_star, len(r.index)) for r in ideal.values()
     ]
 
 

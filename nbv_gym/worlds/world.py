@@ -17,6 +17,7 @@ from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.names import check_name
 from nbv_gym.core.progress import say, say_if_compiling
+from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.worlds import shapes
 from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
 from nbv_gym.worlds.placement import Layout, clear_start, layout
@@ -25,8 +26,6 @@ from nbv_gym.worlds.trees import grow_tree, tree_mesh
 
 #: Bump when generation changes, so cached worlds are rebuilt.
 GENERATOR_VERSION = 1
-#: Ground-truth voxel size, metres (docs/protocol.md#worlds).
-GROUND_TRUTH_RES_M = 0.1
 #: Environment variable that moves the world cache.
 CACHE_ENV = "NBV_GYM_CACHE"
 
@@ -86,7 +85,7 @@ def build_world(spec: WorldSpec) -> World:
             for n, mesh in enumerate(meshes)
         ]
     )
-    ground_truth = surface_voxels(*assets, GROUND_TRUTH_RES_M)
+    ground_truth = surface_voxels(*assets, RESOLUTION_M)
     vertices, faces = shapes.concatenate([assets, shapes.ground_plane(spec.ground_size_m)])
     return World(
         spec,

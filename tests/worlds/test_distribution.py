@@ -12,6 +12,7 @@ import pytest
 
 from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.grid import GridSpec
+from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.env import ExploreEnv
 from nbv_gym.metrics.tracker import QualityTracker
 from nbv_gym.simulator import Simulator
@@ -23,7 +24,6 @@ from nbv_gym.worlds.distribution import (
     is_distribution,
 )
 from nbv_gym.worlds.groundtruth import surface_voxels
-from nbv_gym.worlds.world import GROUND_TRUTH_RES_M
 
 POOL = 4
 
@@ -165,7 +165,7 @@ def test_a_simulators_ground_truth_is_the_freshly_voxelised_worlds():
     """The cached world's ground truth, and the quality lists the simulator derives from it at
     the map's voxels, equal those of a fresh voxelisation of the world's mesh."""
     world = WorldDistribution("cuboids", POOL).world(1)
-    fresh = surface_voxels(world.vertices, world.faces[: world.asset_faces], GROUND_TRUTH_RES_M)
+    fresh = surface_voxels(world.vertices, world.faces[: world.asset_faces], RESOLUTION_M)
     np.testing.assert_array_equal(world.ground_truth.voxels, fresh.voxels)
     simulator = Simulator(world=world)
     dense = QualityTracker(fresh.occupancy(simulator.voxel_grid), simulator.quality.config)
@@ -179,7 +179,7 @@ def test_a_simulators_ground_truth_is_the_freshly_voxelised_worlds():
         astuple(simulator.quality.update_blocks(touched, blocks)),
         astuple(dense.update_blocks(touched, blocks)),
     )
-    shifted = GridSpec((-3.0, 2.0, 0.0), GROUND_TRUTH_RES_M, (40, 30, 20))  # another grid
+    shifted = GridSpec((-3.0, 2.0, 0.0), RESOLUTION_M, (40, 30, 20))  # another grid
     np.testing.assert_array_equal(
         world.ground_truth.grid_voxels(shifted), np.argwhere(fresh.occupancy(shifted))
     )

@@ -249,6 +249,9 @@ class ExploreEnv(gymnasium.Env):
             "true_pose": np.array(_pose_tuple(outcome.scan.true_pose)),
             "estimated_pose": np.array(_pose_tuple(outcome.scan.pose)),
             "end_reason": outcome.reason,
+            "goal_grid_shape": sim.goal_grid.shape[:2],
+            "goal_cell_m": sim.goal_grid.res,
+            "cost_range_m": sim.config.mapping.navigation.cost_range_m,
             **self.optional.calibration(),
         }
 

@@ -36,6 +36,9 @@ AGENT_KEYS: dict[str, str] = {
     "path_penalty": "the configured cost per metre times the path the robot drove",
     "estimated_pose": "the pose the robot maps with (its localisation, noise included)",
     "end_reason": "the step limit, the discovered target or no valid goal: all on its own map",
+    "goal_grid_shape": "the (nx, ny) goal grid the robot plans on (its own map's extent)",
+    "goal_cell_m": "the goal grid's cell size, metres (a setting of the robot's planner)",
+    "cost_range_m": "the path length at which the cost layer saturates at 1 (a planner setting)",
     "predicted_gain": "the NBV layers' prediction, computed from the robot's own map",
     "realised_gain": "the same statistic on the robot's own statistics before and after the scan",
 }

@@ -44,18 +44,14 @@ MAX_EXACT = 10
 
 
 class FrontierTour:
-    """The first stop of the shortest open tour from the robot over the frontier clusters.
-
-    Args:
-        shape: (nx, ny) of the goal grid.
-        cell_m: goal cell size, metres.
-    """
+    """The first stop of the shortest open tour from the robot over the frontier clusters, on
+    the goal grid the agent view describes (``info["goal_grid_shape"]``, ``info["goal_cell_m"]``)."""
 
     observation_layers: tuple[str, ...] = ()
 
-    def __init__(self, shape: tuple[int, int] = (60, 60), cell_m: float = 1.0):
-        self.shape = (int(shape[0]), int(shape[1]))
-        self.cell_m = float(cell_m)
+    def __init__(self) -> None:
+        self.shape = (0, 0)  # (nx, ny) of the goal grid, read from each decision's info
+        self.cell_m = 1.0  # goal cell size, metres, likewise
         self.rng = np.random.default_rng()
         self.last_tour: list[int] = []  # goal indices of the stops of the last decision's tour
 
@@ -67,6 +63,8 @@ class FrontierTour:
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
         """The goal index of the tour's first stop (module docstring)."""
         valid = np.asarray(info["action_mask"], bool).ravel()
+        self.shape = (int(info["goal_grid_shape"][0]), int(info["goal_grid_shape"][1]))
+        self.cell_m = float(info["goal_cell_m"])
         frontier = (observation_layer(observation, "frontier") > 0) & valid
         if not frontier.any():
             return uniform_choice(self.rng, np.flatnonzero(valid))

@@ -32,7 +32,6 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.mapping.navigation import NavigationConfig
 from nbv_gym.nbv.predictor import CANDIDATES_LAYER
 from nbv_gym.policies.nbv import observation_layer, uniform_choice
 
@@ -46,7 +45,8 @@ class InformationGain:
     Args:
         layer: ``"gain_unknown"`` or ``"gain_entropy"``.
         lam: λ, per metre (a string is parsed: ``ig-unknown@0.25``).
-        cost_range_m: the range that scales the ``cost`` layer, metres (the navigation's).
+
+    The ``cost`` layer is a path length over the planner's ``info["cost_range_m"]``.
     """
 
     #: ``ig-unknown@0.25`` names ``IgUnknown(lam="0.25")``.
@@ -56,7 +56,6 @@ class InformationGain:
         self,
         layer: str,
         lam: float | str = DEFAULT_LAMBDA,
-        cost_range_m: float = NavigationConfig.cost_range_m,
     ):
         try:
             lam = float(lam)
@@ -66,7 +65,6 @@ class InformationGain:
             raise ConfigError(f"lam: expected a number ≥ 0, got {lam}")
         self.gain_layer = layer
         self.lam = lam
-        self.cost_range_m = float(cost_range_m)
         self.observation_layers: tuple[str, ...] = (layer, CANDIDATES_LAYER)
         self.rng = np.random.default_rng()
 
@@ -79,7 +77,7 @@ class InformationGain:
         valid = np.asarray(info["action_mask"], bool).ravel()
         candidates = (observation_layer(observation, CANDIDATES_LAYER) > 0) & valid
         gain = observation_layer(observation, self.gain_layer).astype(np.float64)
-        path_m = observation_layer(observation, "cost").astype(np.float64) * self.cost_range_m
+        path_m = observation_layer(observation, "cost").astype(np.float64) * info["cost_range_m"]
         return np.where(candidates, gain * np.exp(-self.lam * path_m), -np.inf)
 
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:

@@ -14,7 +14,6 @@ import pytest
 
 from tests.helpers import run_cli
 
-ROOT = Path(__file__).parents[1]
 #: Lines besides the error: the sweep's note on defaults, evaluate's progress bar.
 NOTE = re.compile(r"their defaults are used|\d+/\d+ stages \[")
 AS_ROOT = os.geteuid() == 0  # root writes into read-only folders: those cases cannot fail

@@ -16,7 +16,7 @@ from nbv_gym.env.actions import nearest_valid_goal
 from nbv_gym.mapping import MappingConfig
 from nbv_gym.simulator import Simulator, SimulatorConfig
 
-ROOT = Path(__file__).parents[1]
+ROOT = Path(__file__).parents[2]
 
 #: A 20-cuboid world in an 80 × 70 m window (not square), off-centre.
 WIDE_WORLD = """

@@ -41,7 +41,7 @@ def field(robot: int, clusters: list[list[int]]):
     mask = np.ones(n, np.int8)
     mask[robot] = 0
     observation = {"frontier": frontier, "robot": robot_layer, "free": np.zeros(n, np.float32)}
-    return observation, {"action_mask": mask}
+    return observation, {"action_mask": mask, "goal_grid_shape": SHAPE, "goal_cell_m": 1.0}
 
 
 @pytest.mark.parametrize("seed", range(12))
@@ -65,7 +65,7 @@ def test_first_stop_is_the_optimal_tours(seed):
     expected, margin = brute_force_first_stop(robot, stops)
     if margin < 1e-6:
         pytest.skip("two optimal tours start at different stops")
-    policy = FrontierTour(SHAPE)
+    policy = FrontierTour()
     policy.reset(seed)
     observation, info = field(robot, clusters)
     assert policy.act(observation, info) == expected
@@ -83,4 +83,4 @@ def test_without_frontier_a_valid_goal():
     observation, info = field(0, [])
     info["action_mask"][:] = 0
     info["action_mask"][7] = 1
-    assert FrontierTour(SHAPE).act(observation, info) == 7
+    assert FrontierTour().act(observation, info) == 7

@@ -28,7 +28,7 @@ def observation(layer: str, gains, costs, candidates):
 def test_the_goal_maximises_gain_times_exp_minus_lambda_path(cls, layer):
     # goal 0: 100 voxels at 2 m; goal 1: 300 at 16 m; goal 2: 1000 but not a candidate
     obs = observation(layer, [100, 300, 1000], [0.1, 0.8, 0.0], candidates=(0, 1))
-    info = {"action_mask": np.ones(6, np.int8)}
+    info = {"action_mask": np.ones(6, np.int8), "cost_range_m": 20.0}
     near, far = 100 * math.exp(-0.1 * 2), 300 * math.exp(-0.1 * 16)  # 81.9 > 60.6
     assert near > far
     assert cls(lam=0.1).act(obs, info) == 0
@@ -49,4 +49,4 @@ def test_without_candidates_a_valid_goal():
     mask = np.array([0, 0, 0, 1, 0, 0], np.int8)
     policy = IgUnknown()
     policy.reset(3)
-    assert policy.act(obs, {"action_mask": mask}) == 3
+    assert policy.act(obs, {"action_mask": mask, "cost_range_m": 20.0}) == 3

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import sys
 from pathlib import Path
 from typing import Annotated, NoReturn
@@ -315,79 +316,36 @@ def bench(
         typer.echo(f"{key:<28} {value:>14,.4g}")
 
 
-def _register_evaluate() -> None:
-    from nbv_gym.cli.evaluate import evaluate
-
-    app.command()(evaluate)
-
-
-_register_evaluate()
-
-
-def _register_sweep() -> None:
-    from nbv_gym.cli.sweep import report, sweep
-
-    app.command()(sweep)
-    app.command()(report)
-
-
-_register_sweep()
-
-
-def _register_score() -> None:
-    from nbv_gym.cli.score import leaderboard, score
-
-    app.command()(score)
-    app.command()(leaderboard)
+#: Commands that live in modules of their own, in the order ``--help`` lists them: (module of
+#: nbv_gym.cli, the function or Typer group, the command's name; None: the function's name).
+_ELSEWHERE = (
+    ("evaluate", "evaluate", None),
+    ("sweep", "sweep", None),
+    ("sweep", "report", None),
+    ("score", "score", None),
+    ("score", "leaderboard", None),
+    ("train", "train", None),
+    ("package", "package_model", "package-model"),
+    ("study", "study_app", "study"),
+    ("configs", "configs_app", "configs"),
+    ("exports", "export", None),
+    ("exports", "view", None),
+    ("exports", "record", None),
+)
 
 
-_register_score()
+def _register(commands: tuple[tuple[str, str, str | None], ...]) -> None:
+    """Add ``commands`` (:data:`_ELSEWHERE`) to the app: functions as commands, Typer apps as
+    groups."""
+    for module, attribute, name in commands:
+        target = getattr(importlib.import_module(f"nbv_gym.cli.{module}"), attribute)
+        if isinstance(target, typer.Typer):
+            app.add_typer(target, name=name)
+        else:
+            app.command(name)(target)
 
 
-def _register_train() -> None:
-    from nbv_gym.cli.train import train
-
-    app.command()(train)
-
-
-_register_train()
-
-
-def _register_package() -> None:
-    from nbv_gym.cli.package import package_model
-
-    app.command("package-model")(package_model)
-
-
-_register_package()
-
-
-def _register_study() -> None:
-    from nbv_gym.cli.study import study_app
-
-    app.add_typer(study_app, name="study")
-
-
-_register_study()
-
-
-def _register_configs() -> None:
-    from nbv_gym.cli.configs import configs_app
-
-    app.add_typer(configs_app, name="configs")
-
-
-_register_configs()
-
-
-def _register_exports() -> None:
-    from nbv_gym.cli.exports import export, record, view
-
-    for command in (export, view, record):
-        app.command()(command)
-
-
-_register_exports()
+_register(_ELSEWHERE)
 
 
 def main() -> None:

@@ -28,8 +28,9 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.metrics.empir3d import Empir3DConfig, empir3d
+from nbv_gym.reporting.verdicts import NOT_REPRODUCED, PARTLY, REPRODUCED
 from nbv_gym.studies import StudyError
-from nbv_gym.studies.report import NOT_REPRODUCED, PARTLY, REPRODUCED, Verdict
+from nbv_gym.studies.report import Verdict
 
 SCORES = ("q_r", "q_a", "q_c", "q_t")
 SCORE_LABELS = {"q_r": "Q_r", "q_a": "Q_a", "q_c": "Q_c", "q_t": "Q_t"}

@@ -7,11 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from nbv_gym.reporting.formatting import markdown_table
+from nbv_gym.reporting.verdicts import VERDICTS
 from nbv_gym.studies import StudyError
-
-REPRODUCED, PARTLY, NOT_REPRODUCED = "reproduced", "partly", "not reproduced"
-NOT_REPRODUCIBLE = "not reproducible here"
-VERDICTS = (REPRODUCED, PARTLY, NOT_REPRODUCED, NOT_REPRODUCIBLE)
 
 
 @dataclass(frozen=True)

@@ -26,18 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from nbv_gym.reporting.formatting import asset_order, markdown_table
+from nbv_gym.reporting.verdicts import NOT_REPRODUCED, NOT_REPRODUCIBLE, PARTLY, REPRODUCED
 from nbv_gym.studies import StudyError
-from nbv_gym.studies.report import (
-    NOT_REPRODUCED,
-    NOT_REPRODUCIBLE,
-    PARTLY,
-    REPRODUCED,
-    Verdict,
-    figure,
-    fmt,
-    verdict_table,
-    write_report,
-)
+from nbv_gym.studies.report import Verdict, figure, fmt, verdict_table, write_report
 from nbv_gym.studies.wd_analysis import (
     COV_LABELS,
     PAPER_BLUR_LEVELS,

@@ -58,6 +58,15 @@ from nbv_gym.reporting.inference import (
     smallest_p_spearman,
     smallest_p_wilcoxon,
 )
+from nbv_gym.reporting.verdicts import (
+    INCONCLUSIVE,
+    NO_DATA,
+    NOT_REPRODUCED,
+    PARTLY,
+    REPRODUCED,
+    count_summary,
+    inconclusive,
+)
 from nbv_gym.worlds import ASSET_TYPES
 
 #: The paper's Table II (simulation, 162 runs): share of tests with p < 0.05. σ_θ's L1 value is
@@ -100,8 +109,8 @@ COMPARISONS = {
 def verdict(hits: int, total: int) -> str:
     """``reproduced`` if every one of ``total`` cases holds, ``partly`` if some, else ``not``."""
     if total == 0:
-        return "no data"
-    return "reproduced" if hits == total else ("partly" if hits else "not")
+        return NO_DATA
+    return REPRODUCED if hits == total else (PARTLY if hits else NOT_REPRODUCED)
 
 
 def trend_rows(cuboids) -> list[dict]:
@@ -125,8 +134,8 @@ def trend_rows(cuboids) -> list[dict]:
                 rhos, ps, n = [*rhos, rho], [*ps, p], n + len(pick)
             word = "rises" if expected > 0 else "falls"
             outcome = verdict(hits, len(parts))
-            if outcome == "partly" and not np.nanmean(rhos) * expected > 0:
-                outcome = "not"  # a wrong-sign mean is never partly
+            if outcome == PARTLY and not np.nanmean(rhos) * expected > 0:
+                outcome = NOT_REPRODUCED  # a wrong-sign mean is never partly
             rows.append(
                 {
                     "claim": f"Fig. 1: {metric} {word} with {statistic}",
@@ -148,10 +157,10 @@ def table2_rows(shares) -> list[dict]:
     for (statistic, metric), paper in PAPER_TABLE2.items():
         ours = float(shares.loc[statistic, metric]) if statistic in shares.index else np.nan
         if not np.isfinite(paper) or not np.isfinite(ours):
-            outcome = "no data"
+            outcome = NO_DATA
         else:
             gap = paper - ours
-            outcome = "reproduced" if gap <= 0.15 else ("partly" if gap <= 0.30 else "not")
+            outcome = REPRODUCED if gap <= 0.15 else (PARTLY if gap <= 0.30 else NOT_REPRODUCED)
         rows.append(
             {
                 "claim": f"Table II: {statistic} indicates {metric}",
@@ -240,15 +249,15 @@ def comparison_verdict(tests: list[OneSided], p_holm: list[float], family: int, 
     some point; else *not*."""
     n = max((t.nonzero for t in tests), default=0)
     if not any(t.n for t in tests):
-        return "no data"
+        return NO_DATA
     if not can_reach(smallest_p_wilcoxon(n, "greater"), family, ALPHA):
-        return f"inconclusive (n = {max(t.n for t in tests)})"
+        return inconclusive(max(t.n for t in tests))
     if not pooled_mean(tests) > 0:
-        return "not"
+        return NOT_REPRODUCED
     higher = [bool(p < ALPHA and t.effect.mean > 0) for t, p in zip(tests, p_holm, strict=True)]
     if all(higher) and below == 0:
-        return "reproduced"
-    return "partly" if any(higher) else "not"
+        return REPRODUCED
+    return PARTLY if any(higher) else NOT_REPRODUCED
 
 
 def pooled_mean(tests: list[OneSided]) -> float:
@@ -358,17 +367,17 @@ def harder_row(units, rng: np.random.Generator | None = None) -> dict:
         + ", ".join(f"{a} {v:+.4f}" for a, v in means.items()),
     }
     if len(assets) < 2:
-        return {**row, "verdict": "no data"}
+        return {**row, "verdict": NO_DATA}
     rank = units["asset"].map({a: ASSET_TYPES.index(a) for a in assets}).to_numpy(float)
     rho, p = spearman_greater(rank, units["advantage"].to_numpy(float), rng)
     row.update(p=_p(p), effect=f"ρ {rho:+.2f}")
     values = list(means.values())
     if not can_reach(smallest_p_spearman(len(units), "greater")):
-        outcome = f"inconclusive (n = {len(units)})"
+        outcome = inconclusive(len(units))
     elif rho <= 0 or not p < ALPHA or values[-1] <= values[0] or values[-1] <= 0:
-        outcome = "not"
+        outcome = NOT_REPRODUCED
     else:
-        outcome = "reproduced" if min(values) > 0 else "partly"
+        outcome = REPRODUCED if min(values) > 0 else PARTLY
     return {**row, "verdict": outcome}
 
 
@@ -467,9 +476,6 @@ def _p(value: float) -> str:
     return "< 1e-16" if value < 1e-16 else f"{value:.3g}"
 
 
-VERDICTS = ("reproduced", "partly", "not", "inconclusive", "no data")
-
-
 def verdict_section(table, out: Path) -> str:
     """The report's verdict section (writes ``verdict.csv``): the rules, the per-model summary
     when the NBV policies fix visibility models, the table, and a power note where the Fig. 2
@@ -477,9 +483,7 @@ def verdict_section(table, out: Path) -> str:
     from nbv_gym.reporting.formatting import markdown_table
 
     table.to_csv(out / "verdict.csv", index=False)
-    words = table["verdict"].str.split(" ").str[0]
-    counts = words.replace("no", "no data").value_counts()
-    summary = ", ".join(f"{counts.get(v, 0)} {v}" for v in VERDICTS if counts.get(v, 0))
+    summary = count_summary(table["verdict"])
     shown = ["claim", "paper", "n", "test", "p", "effect", "ours", "verdict"]
     lines = [
         "## Reproduction verdict",
@@ -519,8 +523,8 @@ def model_summary(table) -> str:
                 model,
                 len(fig2),
                 *(f"{h}/{len(fig2)}" for h in higher),
-                _verdict_counts(fig2["verdict"]),
-                _verdict_counts(budget["verdict"]),
+                count_summary(fig2["verdict"]) or "—",
+                count_summary(budget["verdict"]) or "—",
             ]
         )
     header = ["model", "comparisons", *(f"higher at {f:.0%} (Holm p < 0.05)" for f in FRACTIONS)]
@@ -541,15 +545,10 @@ def _significant(p_cell: str, point: str) -> bool:
     return False
 
 
-def _verdict_counts(verdicts) -> str:
-    counts = verdicts.str.split(" (", regex=False).str[0].value_counts()
-    return ", ".join(f"{n} {v}" for v, n in counts.items()) or "—"
-
-
 def _power_note(table) -> str:
     """The power note of the Fig. 2 rows when none of them can reach significance."""
     fig2 = table[table["claim"].str.contains("Fig. 2: nbv-", regex=False)]
-    if fig2.empty or not fig2["verdict"].str.startswith("inconclusive").all():
+    if fig2.empty or not fig2["verdict"].str.startswith(INCONCLUSIVE).all():
         return ""
     n = max(int(str(v).split("–")[-1]) for v in fig2["n"] if str(v)[0].isdigit())
     family = len(fig2) // max(fig2["model"].nunique(), 1) * len(FRACTIONS)  # one per model

@@ -54,6 +54,8 @@ def test_a_learned_agent_refuses_a_goal_grid_it_was_not_trained_on(name, large_w
     policy = load_policy(name)
     env = ExploreEnv(task="budget", world=large_world, noise=0, max_steps=2,
                      observation_layers=required_layers(policy))  # fmt: skip
-    with pytest.raises(NbvGymError, match=r"chooses among 3600 goals; this world has 14400") as error:
+    with pytest.raises(
+        NbvGymError, match=r"chooses among 3600 goals; this world has 14400"
+    ) as error:
         run_episode(env, policy, seed=1)
     assert "\n" not in str(error.value)

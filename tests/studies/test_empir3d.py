@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from nbv_gym.metrics.empir3d import Empir3DConfig
+from nbv_gym.reporting.verdicts import NOT_REPRODUCED, PARTLY, REPRODUCED
 from nbv_gym.studies.empir3d_analysis import (
     ABLATIONS,
     PAPER_TABLE_I,
@@ -24,7 +25,6 @@ from nbv_gym.studies.empir3d_analysis import (
     shift,
     verdicts,
 )
-from nbv_gym.studies.report import NOT_REPRODUCED, PARTLY, REPRODUCED
 
 CONFIG = Empir3DConfig(epsilon_m=1.0, region_m=100.0)
 RNG = np.random.default_rng(0)

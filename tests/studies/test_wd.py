@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from nbv_gym.metrics.wasserstein import PAPER_BLUR_LEVELS, blurred_reconstruction
-from nbv_gym.studies.report import NOT_REPRODUCED, PARTLY, REPRODUCED
+from nbv_gym.reporting.verdicts import NOT_REPRODUCED, PARTLY, REPRODUCED
 from nbv_gym.studies.wd_analysis import (
     deltas,
     informative,

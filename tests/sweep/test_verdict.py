@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from nbv_gym.reporting.verdicts import NOT_REPRODUCED
 from nbv_gym.sweep.verdict import (
     comparison_rows,
     harder_row,
@@ -20,7 +21,7 @@ from nbv_gym.worlds import ASSET_TYPES
 
 def test_verdict_words():
     assert [verdict(3, 3), verdict(1, 3), verdict(0, 3), verdict(0, 0)] == [
-        "reproduced", "partly", "not", "no data",
+        "reproduced", "partly", "not reproduced", "no data",
     ]  # fmt: skip
 
 
@@ -49,7 +50,7 @@ def test_trends_need_the_expected_sign_in_every_asset_type():
     assert mixed["Fig. 1: L1 rises with r_min"]["verdict"] == "reproduced"
     assert "cuboids +1.00" in mixed["Fig. 1: cov rises with n_obs"]["ours"]
     # … but never with a mean ρ that is not of the expected sign (here 0).
-    assert rows(1, -1)["Fig. 1: cov rises with n_obs"]["verdict"] == "not"
+    assert rows(1, -1)["Fig. 1: cov rises with n_obs"]["verdict"] == NOT_REPRODUCED
 
 
 def test_table2_rows_compare_with_the_paper():
@@ -59,8 +60,8 @@ def test_table2_rows_compare_with_the_paper():
     )
     rows = {r["claim"]: r["verdict"] for r in table2_rows(shares)}
     assert rows["Table II: n_obs indicates cov"] == "reproduced"  # equal
-    assert rows["Table II: n_obs indicates l1"] == "not"  # 0.90 → 0.50
-    assert rows["Table II: r_min indicates cov"] == "not"  # 0.89 → 0.50
+    assert rows["Table II: n_obs indicates l1"] == NOT_REPRODUCED  # 0.90 → 0.50
+    assert rows["Table II: r_min indicates cov"] == NOT_REPRODUCED  # 0.89 → 0.50
     assert rows["Table II: n_omega indicates cov"] == "reproduced"  # 0.04 below
     assert rows["Table II: sigma_theta indicates l1"] == "no data"  # not legible in the paper
 
@@ -121,7 +122,7 @@ def test_a_mean_effect_of_the_wrong_sign_is_never_partly():
     )  # fmt: skip
     row, _ = _fig2(runs, steps)
     assert "higher (p < 0.05, uncorrected) 3/6, lower 3/6" in row["ours"]
-    assert row["verdict"] == "not"  # the old rule read "partly" (some cells higher)
+    assert row["verdict"] == NOT_REPRODUCED  # the old rule read "partly" (some cells higher)
     assert "over all pairs -0.0" in row["ours"]
 
 
@@ -135,9 +136,9 @@ def test_negative_advantages_that_grow_with_difficulty_are_not_reproduced():
     growing = {"cuboids": -0.03, "crosses": -0.02, "helicoids": -0.01, "trees": -0.005}
     row = harder_row(_units({a: [v, v + 0.001, v - 0.001] for a, v in growing.items()}))
     assert float(row["effect"].split()[1]) > 0.8 and float(row["p"]) < 0.05  # it grows…
-    assert row["verdict"] == "not"  # …but the advantage has the wrong sign
+    assert row["verdict"] == NOT_REPRODUCED  # …but the advantage has the wrong sign
     positive = {a: [-v, -v + 0.001, -v - 0.001] for a, v in growing.items()}
-    assert harder_row(_units(positive))["verdict"] == "not"  # shrinks with difficulty
+    assert harder_row(_units(positive))["verdict"] == NOT_REPRODUCED  # shrinks with difficulty
     flipped = {a: [v + 0.04, v + 0.041, v + 0.039] for a, v in growing.items()}
     assert harder_row(_units(flipped))["verdict"] == "reproduced"
 

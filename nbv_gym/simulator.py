@@ -4,6 +4,7 @@ navigation → ΔQ (docs/protocol.md). The environment (:mod:`nbv_gym.env`) and 
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import NOISE_LEVELS, Pose
 from nbv_gym.core.progress import say_if_compiling
-from nbv_gym.core.protocol import EXPLORE_MAX_STEPS
+from nbv_gym.core.protocol import EXPLORE_MAX_STEPS, SCAN_TIME_S, SPEED_MPS, EffortModel
 from nbv_gym.mapping import (
     ExplorationState,
     MappingConfig,
@@ -67,9 +68,12 @@ class EpisodeConfig:
     """When an episode ends and how steps are rewarded.
 
     An episode terminates when the discovered fraction reaches ``discovered_target`` (never when
-    it is None: the budget task) and is truncated after ``max_steps`` steps or when no goal is
-    valid. Reward = ΔQ − ``path_penalty_per_m`` · path length of the step. The robot starts at
-    ``start_xy_m`` heading ``start_yaw_rad``.
+    it is None: the budget and time tasks) and is truncated after ``max_steps`` steps or when no
+    goal is valid. With a ``time_budget_s`` (the time task), a goal whose drive and scan would
+    overrun the remaining time is not valid, so the episode ends when the budget is spent.
+    Time is charged by the effort model (:class:`~nbv_gym.core.protocol.EffortModel`) of
+    ``speed_mps`` and ``scan_time_s``, in every task. Reward = ΔQ − ``path_penalty_per_m`` · path
+    length of the step. The robot starts at ``start_xy_m`` heading ``start_yaw_rad``.
     """
 
     max_steps: int = EXPLORE_MAX_STEPS
@@ -77,6 +81,9 @@ class EpisodeConfig:
     path_penalty_per_m: float = 0.0
     start_xy_m: tuple[float, float] = (0.0, 0.0)
     start_yaw_rad: float = 0.0
+    time_budget_s: float | None = None
+    speed_mps: float = SPEED_MPS
+    scan_time_s: float = SCAN_TIME_S
 
     def __post_init__(self) -> None:
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
@@ -86,6 +93,17 @@ class EpisodeConfig:
             "must be in (0, 1], or None for no termination",
         )
         check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
+        check(
+            self.time_budget_s is None or self.time_budget_s > 0,
+            "time_budget_s",
+            f"must be > 0, or None for no time budget, got {self.time_budget_s}",
+        )
+        EffortModel(self.speed_mps, self.scan_time_s)  # checks both
+
+    @property
+    def effort(self) -> EffortModel:
+        """The effort model of ``speed_mps`` and ``scan_time_s``."""
+        return EffortModel(self.speed_mps, self.scan_time_s)
 
 
 @dataclass(frozen=True)
@@ -195,6 +213,18 @@ class Simulator:
         """The occupancy map of the current episode."""
         return self._state.occupancy
 
+    @property
+    def elapsed_s(self) -> float:
+        """The robot's clock: seconds spent since the first scan under the episode's effort model
+        (path driven / speed + scans after the first × scan time)."""
+        return self.config.episode.effort.elapsed_s(self.path_length_m, self.steps)
+
+    @property
+    def remaining_s(self) -> float:
+        """Seconds left of the episode's time budget (inf without one)."""
+        budget = self.config.episode.time_budget_s
+        return math.inf if budget is None else budget - self.elapsed_s
+
     def save(self, folder: str | Path) -> None:
         """Write the map (``map.npz``) and the statistics (``statistics.npz``) to ``folder``."""
         folder = Path(folder)
@@ -253,6 +283,7 @@ class Simulator:
         """Scan from the current pose, update map, statistics, navigation and quality."""
         scan = self.lidar.scan(self.pose, self.rng)
         update = self.state.apply(scan, robot_xy=np.array([self.pose.x, self.pose.y]))
+        self.state.navigation.limit_reach(self.config.episode.effort.reach_m(self.remaining_s))
         before = self.summary
         self.summary = self._update_quality(update.touched_cells)
         delta_q = self.summary.q - before.q
@@ -284,8 +315,16 @@ class Simulator:
         if self.steps >= episode.max_steps:
             return False, True, f"reached max_steps = {episode.max_steps}"
         if not self.goal_mask().any():
+            if self.remaining_s < math.inf and self._time_bound():
+                return False, True, f"time budget spent ({self.remaining_s:.1f} s left)"
             return False, True, "no valid goal is reachable"
         return False, False, ""
+
+    def _time_bound(self) -> bool:
+        """Whether the time budget is what leaves no valid goal: some goal would be valid with
+        unlimited time."""
+        navigation = self.state.navigation
+        return bool(navigation.goal_mask(limited=False).any())
 
     def _check_goal(self, goal: int) -> None:
         if self.goal_mask()[goal]:
@@ -305,8 +344,15 @@ class Simulator:
         margin = self.config.mapping.navigation.border_margin_m
         if min(x - x0, x1 - x, y - y0, y1 - y) < margin:
             return f"it lies within {margin} m of the window border"
-        if not np.isfinite(navigation.goal_path_length()[goal]):
+        path_m = navigation.goal_path_length()[goal]
+        if not np.isfinite(path_m):
             return "it is not known free space reachable from the robot"
+        if path_m > navigation.reach_m:
+            effort = self.config.episode.effort
+            cost = path_m / effort.speed_mps + effort.scan_time_s
+            return (
+                f"driving there and scanning takes {cost:.1f} s, {self.remaining_s:.1f} s are left"
+            )
         return "it is not a valid goal"
 
     def _start_pose(self) -> Pose:

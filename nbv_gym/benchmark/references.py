@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from nbv_gym.benchmark.scorecard import load_scorecard
-from nbv_gym.benchmark.suites import STANDARD
+from nbv_gym.benchmark.suites import PROTOCOL_VERSION, STANDARD
 
 #: The folder of the shipped reference scorecards.
 REFERENCE_DIR = Path(__file__).with_name("references")
@@ -51,6 +51,45 @@ def load_references() -> list[dict[str, Any]]:
     return [
         load_scorecard(reference_path(n)) for n in shipped_policies() if reference_path(n).is_file()
     ]
+
+
+def is_current(card: dict[str, Any]) -> bool:
+    """Whether the reference scorecard ``card`` belongs to this package's protocol version and
+    reference suite (a stale one is never mixed into a leaderboard)."""
+    suite = card["suite"]
+    return (
+        card["protocol_version"] == PROTOCOL_VERSION
+        and suite["name"] == REFERENCE_SUITE.name
+        and suite["hash"] == REFERENCE_SUITE.content_hash()
+    )
+
+
+def current_references() -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """(current, stale): the shipped reference scorecards split by :func:`is_current`."""
+    cards = load_references()
+    return [c for c in cards if is_current(c)], [c for c in cards if not is_current(c)]
+
+
+def references_pending() -> bool:
+    """Whether some shipped reference scorecard is stale (:func:`is_current`): the references
+    of this protocol version are still to be generated."""
+    return bool(current_references()[1])
+
+
+def pending_note(stale: list[dict[str, Any]]) -> str:
+    """One sentence saying that references for this protocol version are pending, naming the
+    versions the ``stale`` ones were scored under ("" if none is stale)."""
+    if not stale:
+        return ""
+    versions = sorted({c["protocol_version"] for c in stale})
+    names = ", ".join(c["policy"]["name"] for c in stale)
+    return (
+        f"References for protocol version {PROTOCOL_VERSION} (suite {REFERENCE_SUITE.name}, "
+        f"hash {REFERENCE_SUITE.content_hash()}) are pending: the shipped references of {names} "
+        f"were scored under protocol version {', '.join(map(str, versions))} or another suite, "
+        "and are left out rather than mixed in (regenerate them: python -m "
+        "nbv_gym.benchmark.references)."
+    )
 
 
 def regenerate(

@@ -7,7 +7,7 @@ of the time task (equal robot time: travel and scans charged; the held-out world
 (policies that read privileged values) are ranked apart, below. Beside it: the same on the
 benchmark worlds, Q after the budget of scans (equal scans, travel free), Q_paper at 70 %
 discovered under the paper's protocol, and ``P(X > best)``: the probability that a run of the
-entry beats a run of the best reference on the same test world and noise level (ties ½),
+entry scores higher than a run of the best reference on the same test world and noise level (ties ½),
 averaged over those tasks, with its 95 % interval under the stratified bootstrap (the runs of
 both redrawn within each task). The effort table gives, on the time task's test split, Q at the
 budget, Q at matched path (25–200 m), the mean path and whether another policy dominates the
@@ -325,7 +325,7 @@ def _legend(best: Entry) -> str:
         "teleports), the paper's protocol Q_paper at 70 % discovered; neither charges travel. "
         "[brackets]: 95 % intervals, stratified "
         "bootstrap (runs resampled within each world × noise level). "
-        f"P(better than {best.label}): the probability that a run of the policy beats a run of "
+        f"P(better than {best.label}): the probability that a run of the policy scores higher than a run of "
         f"{whom} on the same test world and noise level (ties ½); 0.5 = no difference. "
         "Decision time: the policy's `act`, mean per step. **Bold**: scorecards given on the "
         "command line; the others are the shipped references."

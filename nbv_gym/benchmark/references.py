@@ -4,7 +4,7 @@ and ``nbv-gym leaderboard --references`` ranks it against all of them.
 
 Regenerate them (after a change that moves results; a test says when) with::
 
-    python -m nbv_gym.benchmark.references [NAME ...] [--work DIR] [--workers N]
+    python -m nbv_gym.benchmark.references [NAME ...] [--work DIR] [--workers N] [--scheduler ADDRESS]
 
 which scores each named shipped policy (default: all of :func:`shipped_policies`) with
 :func:`~nbv_gym.benchmark.scoring.score_policy` into ``DIR/<name>/`` (resumable, default
@@ -93,17 +93,24 @@ def pending_note(stale: list[dict[str, Any]]) -> str:
 
 
 def regenerate(
-    names: list[str], work: Path, workers: int | None = None, say: Callable[[str], None] = print
+    names: list[str],
+    work: Path,
+    workers: int | None = None,
+    say: Callable[[str], None] = print,
+    scheduler: str | None = None,
 ) -> list[Path]:
-    """Score each of ``names`` on :data:`REFERENCE_SUITE` into ``work/<name>`` and copy the
-    scorecard into :data:`REFERENCE_DIR`; the written reference files."""
+    """Score each of ``names`` on :data:`REFERENCE_SUITE` into ``work/<name>`` (locally, or on
+    the Dask ``scheduler``) and copy the scorecard into :data:`REFERENCE_DIR`; the written
+    reference files."""
     from nbv_gym.benchmark.scoring import score_policy
 
     written = []
     REFERENCE_DIR.mkdir(exist_ok=True)
     for name in names:
         out = work / name
-        score_policy(name, REFERENCE_SUITE, out, workers, progress=False, say=say)
+        score_policy(
+            name, REFERENCE_SUITE, out, workers, progress=False, say=say, scheduler=scheduler
+        )
         written.append(Path(shutil.copyfile(out / "scorecard.json", reference_path(name))))
         say(f"{name}: reference written to {reference_path(name)}")
     return written
@@ -120,13 +127,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--work", type=Path, default=Path("references-work"),
                         help="folder for the runs (resumable) [default: references-work]")  # fmt: skip
     parser.add_argument("--workers", type=int, default=None, help="worker processes")
+    parser.add_argument("--scheduler", default=None,
+                        help="a Dask scheduler address or 'local' (as nbv-gym score)")  # fmt: skip
     args = parser.parse_args(argv)
     unknown = sorted(set(args.names) - set(shipped_policies()))
     if unknown:
         parser.error(
             f"not shipped policies: {', '.join(unknown)}; shipped: {', '.join(shipped_policies())}"
         )
-    regenerate(args.names or shipped_policies(), args.work, args.workers, _stderr)
+    regenerate(args.names or shipped_policies(), args.work, args.workers, _stderr, args.scheduler)
 
 
 def _stderr(message: str) -> None:

@@ -331,10 +331,12 @@ def _effort_markdown(card: dict[str, Any]) -> list[str]:
 
 def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
     """One split's row of the scorecard's Markdown table."""
+    from nbv_gym.core.protocol import TASK_CHARGES
+
     s, means = agg["all"], agg["means"]
     return [
         part["split"],
-        part["task"],
+        f"{part['task']} ({TASK_CHARGES[part['task']]})",
         _METRIC_LABELS[agg["metric"]],
         s["n"],
         interval_text(s, "iqm"),

@@ -39,11 +39,14 @@ def score_policy(
     progress: bool = True,
     python_path: tuple[str, ...] = (),
     say: Callable[[str], None] | None = None,
+    scheduler: str | None = None,
 ) -> dict[str, Any]:
     """Run every run of ``suite`` for ``policy`` not yet finished in ``out``, then write
     ``out/scorecard.json`` and ``out/scorecard.md``; the scorecard. ``workers``: local worker
-    processes (default: all cores); ``python_path``: folders where a ``module:Class`` policy is
-    found; ``say``: where phase messages go (default: stderr)."""
+    processes (default: all cores), or LocalCluster workers; ``scheduler``: a Dask scheduler
+    address or ``"local"`` (as for sweeps; the runs and so the scorecard are the same as a
+    local scoring's); ``python_path``: folders where a ``module:Class`` policy is found;
+    ``say``: where phase messages go (default: stderr)."""
     from nbv_gym.core.outputs import writable_folder
     from nbv_gym.sweep.runner import default_workers, run_sweep
 
@@ -58,7 +61,7 @@ def score_policy(
         say(f"{part.split}: {part.task} task, {part.runs} runs on {len(part.worlds)} worlds")
         summary = run_sweep(
             part_config(suite, part, policy, sources), out / "parts" / part.split,
-            workers, None, python_path, progress,
+            workers, scheduler, python_path, progress,
         )  # fmt: skip
         if summary.failed:
             raise ScoreError(

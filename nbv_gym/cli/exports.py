@@ -155,7 +155,7 @@ def record(
           --max-steps 30 --out data/cf
       nbv-gym record --policy ppo-budget --world pp3-trees --episodes 5 \\
           --out data/ppo  # its own task: budget, 12 scans
-      nbv-gym record --policy ig-unknown --world pp1-trees --task time \
+      nbv-gym record --policy ig-unknown --world pp1-trees --task time \\
           --time-budget-s 300 --out data/ig
     """
     from nbv_gym.rl.dataset import record_dataset

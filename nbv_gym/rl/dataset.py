@@ -20,6 +20,7 @@ import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,7 @@ def record_dataset(
     dataset_id: str | None = None,
     progress: Callable[[str], None] | None = None,
     task: str = "explore",
-    effort: dict[str, float] | None = None,
+    effort: dict[str, Any] | None = None,
 ):
     """Run ``episodes`` episodes of ``policy`` on ``world`` (reset seeds ``seed``, ``seed + 1``,
     …) under ``task`` and write them as a Minari dataset under the folder ``out``; the

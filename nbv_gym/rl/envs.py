@@ -62,7 +62,9 @@ class WorldCycleEnv(gymnasium.Env):
             invalid_action=invalid_action,
             world_pool_size=world_pool_size,
             episodes_per_world=episodes_per_world,
-            **(effort or {}),
+            time_budget_s=(effort or {}).get("time_budget_s"),
+            speed_mps=(effort or {}).get("speed_mps"),
+            scan_time_s=(effort or {}).get("scan_time_s"),
         )
         self._world, self._episodes = self.worlds[0], 0
         self.action_space = self.env.action_space

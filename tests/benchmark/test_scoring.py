@@ -154,6 +154,15 @@ def test_a_second_scoring_gives_the_same_scorecard_apart_from_timings(scored, ti
     assert without_timings(strict_json(dumps_strict(again))) == without_timings(first)
 
 
+def test_scoring_on_a_dask_cluster_gives_the_local_scorecard(scored, tiny_suite, tmp_path):
+    pytest.importorskip("distributed")
+    first = strict_json((scored[0] / "scorecard.json").read_text())
+    again = score_policy(
+        "closest-frontier", tiny_suite, tmp_path, workers=2, progress=False, scheduler="local"
+    )
+    assert without_timings(strict_json(dumps_strict(again))) == without_timings(first)
+
+
 def test_a_killed_scoring_resumes_with_the_missing_runs_only(scored, tiny_suite, capsys):
     out = scored[0]
     first = strict_json((out / "scorecard.json").read_text())

@@ -15,11 +15,13 @@ import numpy as np
 
 from nbv_gym.core.protocol import TIME_BUDGET_S
 
-#: Elapsed times (s) at which a scorecard run keeps its Q: 31 points from 0 to the time task's
-#: default budget.
-TIME_GRID_S = tuple(float(t) for t in np.linspace(0.0, TIME_BUDGET_S, 31))
-#: Path lengths (m) at which a scorecard run keeps its Q: every 5 m from 0 to 200 m.
-PATH_GRID_M = tuple(float(d) for d in np.arange(0.0, 200.0 + 1e-9, 5.0))
+#: Elapsed times (s) at which a scorecard run keeps its Q: 21 points from 0 to the time task's
+#: default budget (every 30 s at 600 s).
+TIME_GRID_S = tuple(float(t) for t in np.linspace(0.0, TIME_BUDGET_S, 21))
+#: Path lengths (m) at which a scorecard run keeps its Q: every 5 m to 30 m, every 10 m to 100 m,
+#: every 20 m to 200 m (the matched paths among them).
+PATH_GRID_M = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0,
+               120.0, 140.0, 160.0, 180.0, 200.0)  # fmt: skip
 #: Decimals a scorecard keeps of a curve's Q (Q is ~1e-2: five or six significant digits).
 CURVE_DECIMALS = 7
 #: Path lengths (m) at which scorecards compare policies (Q at matched path).

@@ -41,6 +41,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import time
 from functools import partial
 from pathlib import Path
@@ -231,8 +232,19 @@ def write_scorecard(card: dict[str, Any], out: Path) -> tuple[Path, Path]:
 
 
 def dumps_strict(data: Any) -> str:
-    """``data`` as JSON that every parser accepts: NaN and ±inf written as ``null``."""
-    return dumps_json(data, indent=1) + "\n"
+    """``data`` as JSON that every parser accepts: NaN and ±inf written as ``null``; arrays of
+    numbers on one line (a scorecard holds two curves per run)."""
+    return _NUMBER_ARRAY.sub(_one_line, dumps_json(data, indent=1)) + "\n"
+
+
+#: A JSON array of numbers and nulls spread over lines by ``indent``.
+_NUMBER_ARRAY = re.compile(
+    r"\[\s*((?:-?[0-9][0-9.eE+-]*|null)(?:,\s*(?:-?[0-9][0-9.eE+-]*|null))*)\s*\]"
+)
+
+
+def _one_line(match: re.Match[str]) -> str:
+    return "[" + re.sub(r",\s+", ", ", match.group(1)) + "]"
 
 
 def load_scorecard(path: str | Path) -> dict[str, Any]:

@@ -7,7 +7,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -21,7 +21,7 @@ from nbv_gym.simulator import InvalidActionError
 
 STEP_COLUMNS = (
     "step", "goal", "discovered", "q", "q_paper", "q_observed", "reward", "path_length_m",
-    "predicted_gain", "realised_gain", "time_s",
+    "elapsed_s", "predicted_gain", "realised_gain", "time_s",
 )  # fmt: skip
 #: The files ``nbv-gym run`` writes into its run folder (besides the trajectory).
 RUN_FILES = ("steps.csv", "summary.json", "map.npz", "statistics.npz", "map.ply", "exploration.gif")
@@ -29,8 +29,10 @@ RUN_FILES = ("steps.csv", "summary.json", "map.npz", "statistics.npz", "map.ply"
 
 @dataclass
 class EpisodeResult:
-    """The per-step table (one dict per row, :data:`STEP_COLUMNS`, step 0 = the first scan) and
-    the final figures of an episode."""
+    """The per-step table (one dict per row, :data:`STEP_COLUMNS`, step 0 = the first scan;
+    ``elapsed_s`` is the robot's clock under the effort model in every task,
+    :class:`~nbv_gym.core.protocol.EffortModel`; ``time_s`` the wall time) and the final figures
+    of an episode."""
 
     steps: list[dict[str, float]] = field(default_factory=list)
     end_reason: str = ""
@@ -65,7 +67,8 @@ def run_episode(
     start = time.perf_counter()
     observation, info = start_episode(env, policy, seed)
     result = EpisodeResult()
-    row = _row(0, -1, info, 0.0, start, policy)
+    clock = cast(ExploreEnv, env.unwrapped).sim  # the robot's clock, in every task
+    row = _row(0, -1, info, 0.0, start, policy, clock.elapsed_s)
     done = False
     while True:
         result.steps.append(row)
@@ -79,7 +82,7 @@ def run_episode(
         except InvalidActionError as error:
             where = f"Policy {policy_name(policy)} at step {len(result.steps)}"
             raise PolicyError(f"{where}: {error}") from None
-        row = _row(len(result.steps), int(goal), info, reward, start, policy)
+        row = _row(len(result.steps), int(goal), info, reward, start, policy, clock.elapsed_s)
         done = terminated or truncated
     result.end_reason = info["end_reason"]
     result.wall_time_s = time.perf_counter() - start
@@ -106,10 +109,17 @@ def policy_info(policy: Policy, info: dict[str, Any]) -> Mapping[str, Any]:
 
 
 def _row(
-    step: int, goal: int, info: dict[str, Any], reward: float, start: float, policy: Policy
+    step: int,
+    goal: int,
+    info: dict[str, Any],
+    reward: float,
+    start: float,
+    policy: Policy,
+    elapsed_s: float,
 ) -> dict:
     """One step's row; ``predicted_gain``/``realised_gain`` are those of the policy's gain layer
-    (the ``nbv-*`` policies' ``gain_layer``), NaN for other policies and after a reset."""
+    (the ``nbv-*`` policies' ``gain_layer``), NaN for other policies and after a reset;
+    ``elapsed_s`` the robot's clock (s)."""
     layer = getattr(policy, "gain_layer", None)
     return {
         "step": step,
@@ -120,6 +130,7 @@ def _row(
         "q_observed": float(info["q_observed"]),
         "reward": float(reward),
         "path_length_m": float(info["path_length_m"]),
+        "elapsed_s": float(elapsed_s),
         "predicted_gain": float(info.get("predicted_gain", {}).get(layer, np.nan)),
         "realised_gain": float(info.get("realised_gain", {}).get(layer, np.nan)),
         "time_s": time.perf_counter() - start,

@@ -4,6 +4,7 @@ navigation → ΔQ (docs/protocol.md). The environment (:mod:`nbv_gym.env`) and 
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -168,6 +169,18 @@ class Simulator:
         """The occupancy map of the current episode."""
         return self._state.occupancy
 
+    @property
+    def elapsed_s(self) -> float:
+        """The robot's clock: seconds spent since the first scan under the episode's effort model
+        (path driven / speed + scans after the first × scan time)."""
+        return self.config.episode.effort.elapsed_s(self.path_length_m, self.steps)
+
+    @property
+    def remaining_s(self) -> float:
+        """Seconds left of the episode's time budget (inf without one)."""
+        budget = self.config.episode.time_budget_s
+        return math.inf if budget is None else budget - self.elapsed_s
+
     def save(self, folder: str | Path) -> None:
         """Write the map (``map.npz``) and the statistics (``statistics.npz``) to ``folder``."""
         folder = Path(folder)
@@ -226,6 +239,7 @@ class Simulator:
         """Scan from the current pose, update map, statistics, navigation and quality."""
         scan = self.lidar.scan(self.pose, self.rng)
         update = self.state.apply(scan, robot_xy=np.array([self.pose.x, self.pose.y]))
+        self.state.navigation.limit_reach(self.config.episode.effort.reach_m(self.remaining_s))
         before = self.summary
         self.summary = self._update_quality(update.touched_cells)
         delta_q = self.summary.q - before.q
@@ -257,8 +271,16 @@ class Simulator:
         if self.steps >= episode.max_steps:
             return False, True, f"reached max_steps = {episode.max_steps}"
         if not self.goal_mask().any():
+            if self.remaining_s < math.inf and self._time_bound():
+                return False, True, f"time budget spent ({self.remaining_s:.1f} s left)"
             return False, True, "no valid goal is reachable"
         return False, False, ""
+
+    def _time_bound(self) -> bool:
+        """Whether the time budget is what leaves no valid goal: some goal would be valid with
+        unlimited time."""
+        navigation = self.state.navigation
+        return bool(navigation.goal_mask(limited=False).any())
 
     def _check_goal(self, goal: int) -> None:
         if self.goal_mask()[goal]:
@@ -278,8 +300,15 @@ class Simulator:
         margin = self.config.mapping.navigation.border_margin_m
         if min(x - x0, x1 - x, y - y0, y1 - y) < margin:
             return f"it lies within {margin} m of the window border"
-        if not np.isfinite(navigation.goal_path_length()[goal]):
+        path_m = navigation.goal_path_length()[goal]
+        if not np.isfinite(path_m):
             return "it is not known free space reachable from the robot"
+        if path_m > navigation.reach_m:
+            effort = self.config.episode.effort
+            cost = path_m / effort.speed_mps + effort.scan_time_s
+            return (
+                f"driving there and scanning takes {cost:.1f} s, {self.remaining_s:.1f} s are left"
+            )
         return "it is not a valid goal"
 
     def _start_pose(self) -> Pose:

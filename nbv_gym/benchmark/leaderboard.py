@@ -1,16 +1,24 @@
 """The leaderboard: scorecards of one suite and protocol version ranked in one table, with the
-probability of improvement over the best reference and performance profiles
-(``nbv-gym leaderboard``).
+probability of improvement over the best reference, the Pareto front of Q and path, Q against
+elapsed time and performance profiles (``nbv-gym leaderboard``).
 
-Ranking: by the interquartile mean of Q after the budget on the test split (the held-out worlds);
-oracles (policies that read privileged values) are ranked apart, below. Beside it: the same on the
-benchmark worlds, Q_paper at 70 % discovered under the paper's protocol, the mean discovered
-fraction, path length and decision time on the test split, and ``P(X > best)``: the probability
-that a run of the entry beats a run of the best reference on the same test world and noise level
-(ties ½), averaged over those tasks, with its 95 % interval under the stratified bootstrap (the
-runs of both redrawn within each task). Performance profiles (Agarwal et al., *Deep RL at the
-edge of the statistical precipice*, NeurIPS 2021): per policy the fraction of runs scoring above
-τ, with 95 % stratified-bootstrap bands.
+Ranking: by the interquartile mean of the area under Q(t) over the time budget on the test split
+of the time task (equal robot time: travel and scans charged; the held-out worlds); oracles
+(policies that read privileged values) are ranked apart, below. Beside it: the same on the
+benchmark worlds, Q after the budget of scans (equal scans, travel free), Q_paper at 70 %
+discovered under the paper's protocol, and ``P(X > best)``: the probability that a run of the
+entry scores higher than a run of the best reference on the same test world and noise level (ties ½),
+averaged over those tasks, with its 95 % interval under the stratified bootstrap (the runs of
+both redrawn within each task). The effort table gives, on the time task's test split, Q at the
+budget, Q at matched path (25–200 m), the mean path and whether another policy dominates the
+entry on (mean Q at the budget, mean path): as good a map for no longer a path, one of them
+strictly. Figures: mean Q against elapsed time per policy with its interquartile band, and
+performance profiles (Agarwal et al., *Deep RL at the edge of the statistical precipice*,
+NeurIPS 2021): per policy the fraction of runs scoring above τ, with 95 % stratified-bootstrap
+bands.
+
+References scored under another protocol version or suite are left out, and the board says
+that references for this version are pending.
 """
 
 from __future__ import annotations
@@ -23,16 +31,27 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
+from nbv_gym.benchmark.suites import HEADLINE_SPLIT
 from nbv_gym.core.errors import NbvGymError
 
-#: The split and figure that rank the table.
-RANK_SPLIT = "test"
+#: The split whose score ranks the table.
+RANK_SPLIT = HEADLINE_SPLIT
 #: The splits shown, in order (the scores table's columns, the profile figure's panels), with
-#: the label of their score.
+#: the label of their score and what it charges.
 SPLITS = {
-    "test": "Q after the budget, test split",
-    "benchmark": "Q after the budget, benchmark worlds",
-    "explore": "Q_paper at 70 % discovered, paper protocol",
+    "time-test": "area under Q(t) / budget, test split (equal robot time)",
+    "time-benchmark": "area under Q(t) / budget, benchmark worlds (equal robot time)",
+    "test": "Q after the scans, test split (equal scans, travel free)",
+    "benchmark": "Q after the scans, benchmark worlds (equal scans, travel free)",
+    "explore": "Q_paper at 70 % discovered (the paper's protocol)",
+}
+#: Short column titles of :data:`SPLITS`.
+SPLIT_COLUMNS = {
+    "time-test": "equal time, test: IQM area under Q(t)",
+    "time-benchmark": "equal time, benchmark: IQM area under Q(t)",
+    "test": "equal scans (travel free), test: IQM Q",
+    "benchmark": "equal scans (travel free), benchmark: IQM Q",
+    "explore": "paper's protocol: IQM Q_paper@70 %",
 }
 
 
@@ -57,6 +76,14 @@ class Entry:
     def oracle(self) -> bool:
         return bool(self.card["policy"]["oracle"])
 
+    def metric(self, split: str = RANK_SPLIT) -> str:
+        """The score of ``split`` (its aggregates' ``metric``; ``q`` if the split is missing)."""
+        return self.card["aggregates"].get(split, {}).get("metric", "q")
+
+    def effort(self, split: str = RANK_SPLIT) -> dict[str, Any]:
+        """The ``effort`` aggregates of ``split`` ({} if missing)."""
+        return self.card["aggregates"].get(split, {}).get("effort") or {}
+
     def score(self, split: str = RANK_SPLIT) -> float:
         """The IQM of ``split``'s score (NaN if undefined or the split is missing)."""
         value = self.card["aggregates"].get(split, {}).get("all", {}).get("iqm")
@@ -71,13 +98,17 @@ class Entry:
 
 def gather(paths: list[Path], references: bool) -> list[Entry]:
     """The entries of the scorecard files (or folders holding ``scorecard.json``) ``paths``,
-    plus the shipped references if ``references``; :class:`LeaderboardError` if there are none or
-    they belong to different suites or protocol versions."""
-    from nbv_gym.benchmark.references import load_references
+    plus the shipped references of this protocol version if ``references`` (stale ones are left
+    out: :func:`~nbv_gym.benchmark.references.pending_note`); :class:`LeaderboardError` if there
+    are none or they belong to different suites or protocol versions."""
+    from nbv_gym.benchmark.references import current_references, pending_note
 
     entries: list[Entry] = []
+    pending = ""
     if references:
-        entries += [Entry(c["policy"]["name"], c, "references") for c in load_references()]
+        current, stale = current_references()
+        entries += [Entry(c["policy"]["name"], c, "references") for c in current]
+        pending = pending_note(stale)
     for path in paths:
         path = path / "scorecard.json" if path.is_dir() else path
         card = load_scorecard(path)
@@ -87,7 +118,8 @@ def gather(paths: list[Path], references: bool) -> list[Entry]:
         entries.append(Entry(label, card, str(path)))
     if not entries:
         raise LeaderboardError(
-            "No scorecard to rank: give scorecard files (from `nbv-gym score`) and/or --references."
+            f"No scorecard to rank: {pending or ''}{' ' if pending else ''}Give scorecard files "
+            "(from `nbv-gym score`) and/or --references."
         )
     check_comparable(entries)
     return entries
@@ -141,33 +173,38 @@ def baseline(entries: list[Entry]) -> Entry:
 
 
 def improvement(entry: Entry, best: Entry, seed: int = 0):
-    """``P(entry > best)`` on the test split's Q with its stratified bootstrap interval."""
+    """``P(entry > best)`` on the ranking split's score with its stratified bootstrap
+    interval."""
     from nbv_gym.reporting.inference import probability_of_improvement_interval
 
-    a, tasks_a = entry.runs(RANK_SPLIT, "q")
-    b, tasks_b = best.runs(RANK_SPLIT, "q")
+    a, tasks_a = entry.runs(RANK_SPLIT, entry.metric())
+    b, tasks_b = best.runs(RANK_SPLIT, best.metric())
     label = int.from_bytes(hashlib.sha256(entry.label.encode()).digest()[:4], "big")
     rng = np.random.default_rng([seed, label])
     return probability_of_improvement_interval(a, tasks_a, b, tasks_b, rng)
 
 
 def build_leaderboard(paths: list[Path], references: bool, out: Path) -> tuple[Path, Path]:
-    """Write ``leaderboard.md``, ``leaderboard.html`` and the performance profiles
-    (``profiles.png``/``.svg``) into ``out``; the paths of the Markdown and HTML files."""
+    """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
+    (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
+    ``out``; the paths of the Markdown and HTML files."""
     from nbv_gym.core.outputs import writable_folder
     from nbv_gym.reporting.html import write_html
 
     entries = gather(paths, references)
+    pending = _pending_references() if references else ""
     out = writable_folder(out)
+    save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
-    path.write_text(leaderboard_markdown(entries))
+    path.write_text(leaderboard_markdown(entries, pending))
     return path, write_html(path)
 
 
-def leaderboard_markdown(entries: list[Entry]) -> str:
+def leaderboard_markdown(entries: list[Entry], pending: str = "") -> str:
     """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
-    the profiles figure."""
+    the figures; ``pending``: a note that references of this protocol version are pending,
+    shown in bold above the tables."""
     players, oracles = ranked(entries)
     best = baseline(entries)
     suite, version = entries[0].card["suite"], entries[0].card["protocol_version"]
@@ -177,6 +214,7 @@ def leaderboard_markdown(entries: list[Entry]) -> str:
         f"Suite `{suite['name']}` (hash `{suite['hash']}`), protocol version {version}: "
         f"{suite['description']}.",
         "",
+        *([f"**{pending}**", ""] if pending else []),
         _legend(best),
         "",
         _tables(players, best, rank=True),
@@ -194,6 +232,13 @@ def leaderboard_markdown(entries: list[Entry]) -> str:
             _tables(oracles, best, rank=False),
         ]
     lines += [
+        "",
+        "## Q against the robot's time",
+        "",
+        "Mean Q against elapsed time (path / speed + scans × scan time) on the time task's test "
+        "split, with the interquartile band over runs; oracles dashed.",
+        "",
+        "![Q against elapsed time](q-time.png)",
         "",
         "## Performance profiles",
         "",
@@ -217,40 +262,70 @@ def _pending(entries: list[Entry]) -> list[str]:
     return ["", f"Shipped policies without a reference scorecard yet: {named}."]
 
 
+def _pending_references() -> str:
+    """The note that references of this protocol version are pending ("" when all are
+    current)."""
+    from nbv_gym.benchmark.references import current_references, pending_note
+
+    return pending_note(current_references()[1])
+
+
 def _tables(entries: list[Entry], best: Entry, rank: bool) -> str:
     """The scores table and the effort table of ``entries``."""
+    from nbv_gym.benchmark.curves import MATCHED_PATHS_M
     from nbv_gym.reporting.formatting import markdown_table
 
     ranks = [str(i + 1) if rank else "oracle" for i in range(len(entries))]
-    scores = [
-        "rank",
-        "policy",
-        "test: IQM Q",
-        "benchmark: IQM Q",
-        "explore: IQM Q_paper@70 %",
-        f"P(better than {best.label})",
-    ]
-    effort = ["rank", "policy", "test: mean Q", "discovered", "path (m)", "decision (ms/step)"]
+    scores = ["rank", "policy", *SPLIT_COLUMNS.values(), f"P(better than {best.label})"]
+    effort = ["rank", "policy", "Q at the budget", *(f"Q at {d:g} m" for d in MATCHED_PATHS_M),
+              "path (m)", "time (s)", "Pareto (Q, path)", "decision (ms/step)"]  # fmt: skip
+    dominated = pareto_dominated(entries)
     return "\n\n".join(
         [
             markdown_table(
                 scores, [_score_row(r, e, best) for r, e in zip(ranks, entries, strict=True)]
             ),
-            "Effort behind the score (test split, means per run):",
+            "Effort behind the score (time task, test split; IQM [95 % interval] and means per "
+            "run; Pareto: dominated by a policy with as high a mean Q at the budget for as short "
+            "a mean path, one strictly):",
             markdown_table(
-                effort, [_effort_row(r, e) for r, e in zip(ranks, entries, strict=True)]
+                effort,
+                [_effort_row(r, e, dominated) for r, e in zip(ranks, entries, strict=True)],
             ),
         ]
     )
 
 
+def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
+    """Entry label → the label of an entry that dominates it on (mean Q at the time budget,
+    mean path) of the ranking split: Q ≥ and path ≤, one of them strictly. Entries without
+    those figures are left out."""
+    points = {}
+    for entry in entries:
+        means = entry.card["aggregates"].get(RANK_SPLIT, {}).get("means", {})
+        q, path = means.get("q"), means.get("path_length_m")
+        if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
+            points[entry.label] = (q, path)
+    out = {}
+    for label, (q, path) in points.items():
+        for other, (q2, path2) in points.items():
+            if other != label and q2 >= q and path2 <= path and (q2 > q or path2 < path):
+                out[label] = other
+                break
+    return out
+
+
 def _legend(best: Entry) -> str:
     whom = "the best reference" if best.reference else "the best entry (no reference given)"
     return (
-        "Ranked by the interquartile mean (IQM) of Q after the budget on the test split, the "
-        "worlds no policy was tuned or trained on; [brackets]: 95 % intervals, stratified "
+        "Ranked by the interquartile mean (IQM) of the area under Q(t) over the time budget "
+        "(the mean Q the robot held, with travel and scans charged by the effort model) on the "
+        "test split of the time task, the worlds no policy was tuned or trained on. The budget "
+        "task's columns give Q after a fixed number of scans with travel free (the robot "
+        "teleports), the paper's protocol Q_paper at 70 % discovered; neither charges travel. "
+        "[brackets]: 95 % intervals, stratified "
         "bootstrap (runs resampled within each world × noise level). "
-        f"P(better than {best.label}): the probability that a run of the policy beats a run of "
+        f"P(better than {best.label}): the probability that a run of the policy scores higher than a run of "
         f"{whom} on the same test world and noise level (ties ½); 0.5 = no difference. "
         "Decision time: the policy's `act`, mean per step. **Bold**: scorecards given on the "
         "command line; the others are the shipped references."
@@ -273,23 +348,59 @@ def _score_row(rank: str, entry: Entry, best: Entry) -> list[Any]:
     ]
 
 
-def _effort_row(rank: str, entry: Entry) -> list[Any]:
+def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]:
     """One row of the effort table."""
+    from nbv_gym.benchmark.curves import MATCHED_PATHS_M
+
     test = entry.card["aggregates"].get(RANK_SPLIT, {})
-    means = test.get("means", {})
+    means, effort = test.get("means", {}), entry.effort()
     decision = means.get("decision_time_s")
+    at_budget = effort.get("q_at_budget")
+    at_path = effort.get("q_at_path", {})
     return [
         rank,
         _name(entry),
-        interval_text(test["all"], "mean") if test else "—",
-        _fmt(means.get("discovered"), ".1%"),
+        interval_text(at_budget, "iqm") if at_budget else "—",
+        *(
+            interval_text(at_path[f"{d:g}"], "iqm") if f"{d:g}" in at_path else "—"
+            for d in MATCHED_PATHS_M
+        ),
         _fmt(means.get("path_length_m"), ".0f"),
+        _fmt(effort.get("elapsed_s"), ".0f"),
+        f"dominated by `{dominated[entry.label]}`" if entry.label in dominated else "front",
         _fmt(None if decision is None else 1000 * decision, ".2f"),
     ]
 
 
 def _fmt(value: Any, spec: str) -> str:
     return "—" if value is None or not np.isfinite(value) else format(value, spec)
+
+
+def save_q_time(entries: list[Entry], path: Path) -> Path:
+    """Draw mean Q against elapsed time on the ranking split per entry, with the interquartile
+    band (the scorecards' ``effort.q_time``), to ``path`` (PNG) and its SVG twin."""
+    from nbv_gym.benchmark.curves import TIME_GRID_S
+    from nbv_gym.reporting.formatting import figure, policy_colours
+    from nbv_gym.reporting.html import save_figure
+
+    players, oracles = ranked(entries)
+    ordered = [*players, *oracles]
+    colours = policy_colours([e.label for e in ordered])
+    fig = figure(6.4, 4.4)
+    ax = fig.subplots()
+    for entry in ordered:
+        curve = entry.effort().get("q_time")
+        if not curve:
+            continue
+        colour, style = colours[entry.label], "--" if entry.oracle else "-"
+        ax.plot(TIME_GRID_S, curve["mean"], style, color=colour, label=entry.label, linewidth=1.4)
+        ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
+    ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
+    ax.set_ylabel(f"Q ({RANK_SPLIT} split, mean and interquartile band)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    return save_figure(fig, path)
 
 
 def save_profiles(entries: list[Entry], path: Path) -> Path:

@@ -13,14 +13,21 @@ Fields (the JSON schema :data:`SCHEMA_PATH` ships beside this module and fixes t
   ``module:Class`` policy, the model file of a trained agent (``hashed_file`` names it);
 - ``runs``: one object per run: split, task, world, asset, noise, repeat, seed, steps, end reason,
   Q and Q_paper at the end, Q_paper at 70 % discovered, discovered fraction, path length (m),
-  decision time (mean seconds of the policy's ``act`` per step) and the episode's wall time;
-- ``aggregates``: per split, the split's score (``metric``: Q after the budget, or Q_paper at
-  70 % for the explore task) over all its runs (``all``) and per asset type (``by_asset``): the
-  interquartile mean and the mean, each with its 95 % interval under the stratified bootstrap
-  (runs resampled within each world × noise level; :mod:`nbv_gym.reporting.inference`), and the
-  optimality gap ``mean(max(1 − score, 0))`` with its interval — the target 1 is a perfect map
-  (every ground-truth voxel covered, every empty cuboid at the clamping floor); ``means``: plain
-  means of the other figures;
+  the robot's elapsed time under the effort model (s), Q over effort (``q_time`` on
+  :data:`~nbv_gym.benchmark.curves.TIME_GRID_S`, ``q_path`` on
+  :data:`~nbv_gym.benchmark.curves.PATH_GRID_M`; ``q_time_auc``: the normalised area under Q(t)
+  over the time task's budget, null in the other tasks), decision time (mean seconds of the
+  policy's ``act`` per step) and the episode's wall time;
+- ``aggregates``: per split, the split's score (``metric``: the area under Q(t) for the time
+  task, Q after the budget for the budget task, Q_paper at 70 % for the explore task) over all
+  its runs (``all``) and per asset type (``by_asset``): the interquartile mean and the mean,
+  each with its 95 % interval under the stratified bootstrap (runs resampled within each world ×
+  noise level; :mod:`nbv_gym.reporting.inference`), and the optimality gap ``mean(max(1 − score, 0))``
+  with its interval — the target 1 is a perfect map (every ground-truth voxel covered, every
+  empty cuboid at the clamping floor); ``means``: plain means of the other figures; ``effort``:
+  the same summaries of Q at matched path (25, 50, 100, 200 m), of Q at the time budget (time
+  task), the mean elapsed time and the mean Q(t) and Q(path) curves with their interquartile
+  bands. :func:`aggregate` computes all of a split's aggregates;
 - ``created`` and ``timing`` (wall time, workers): the only fields, with the per-run times, that
   differ between two scorings of the same policy.
 
@@ -34,6 +41,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import time
 from functools import partial
 from pathlib import Path
@@ -62,6 +70,8 @@ MEAN_FIGURES = (
 )
 #: Seed of the bootstrap (a scorecard is the same whenever its runs are).
 BOOTSTRAP_SEED = 0
+#: The time task's score (:data:`~nbv_gym.benchmark.suites.TASK_METRICS`).
+TIME_METRIC = "q_time_auc"
 
 
 class ScorecardError(NbvGymError):
@@ -139,11 +149,13 @@ def build_scorecard(
 
 
 def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
-    """The aggregates of one split: ``metric`` summarised over all runs and per asset type
-    (:func:`summary`), and the plain means of :data:`MEAN_FIGURES`."""
+    """Every aggregate of one split: ``metric`` summarised over all runs and per asset type
+    (:func:`summary`), the plain means of :data:`MEAN_FIGURES`, and, for runs that carry Q over
+    effort (protocol version 2 on), ``effort``: Q at matched path, Q at the time budget (time
+    task), the mean elapsed time and the mean curves (:func:`effort_aggregates`)."""
     mine = [run for run in runs if run["split"] == split]
     assets = list(dict.fromkeys(run["asset"] for run in mine))
-    return {
+    out = {
         "metric": metric,
         "all": summary(mine, metric, f"{split}/all"),
         "by_asset": {
@@ -151,21 +163,58 @@ def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, 
         },
         "means": {name: _mean([run[name] for run in mine]) for name in MEAN_FIGURES},
     }
+    if mine and all("q_path" in run for run in mine):
+        out["effort"] = effort_aggregates(mine, split, metric)
+    return out
 
 
-def summary(runs: list[dict[str, Any]], metric: str, label: str) -> dict[str, Any]:
-    """IQM, mean and optimality gap of ``metric`` over ``runs``, each with its 95 % stratified
-    bootstrap interval (strata: world × noise level); ``n``: runs with a value."""
+def effort_aggregates(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
+    """Over effort, for :func:`aggregate`: ``q_at_path`` (per matched path in metres, the
+    :func:`summary` of Q there), ``q_at_budget`` (time task: the summary of the final Q, which
+    is Q at the time budget; else None), ``elapsed_s`` (mean), and ``q_time``/``q_path``: the
+    mean curve on the scorecard's grid with the 25th and 75th percentiles (``low``,
+    ``high``)."""
+    from nbv_gym.benchmark.curves import MATCHED_PATHS_M, PATH_GRID_M
+
+    at_path = {}
+    for distance in MATCHED_PATHS_M:
+        index = PATH_GRID_M.index(distance)
+        values = [run["q_path"][index] for run in runs]
+        at_path[f"{distance:g}"] = summary(runs, "q_path", f"{split}/path{distance:g}", values)
+    timed = metric == TIME_METRIC
+    return {
+        "q_at_path": at_path,
+        "q_at_budget": summary(runs, "q", f"{split}/budget") if timed else None,
+        "elapsed_s": _mean([run["elapsed_s"] for run in runs]),
+        "q_time": _band([run["q_time"] for run in runs]),
+        "q_path": _band([run["q_path"] for run in runs]),
+    }
+
+
+def _band(curves: list[list[float]]) -> dict[str, list[float]]:
+    """Mean and 25th / 75th percentiles of equal-length ``curves``, point by point."""
+    stack = np.asarray(curves, dtype=float)
+    low, high = np.percentile(stack, [25, 75], axis=0)
+    return {"mean": stack.mean(axis=0).tolist(), "low": low.tolist(), "high": high.tolist()}
+
+
+def summary(
+    runs: list[dict[str, Any]], metric: str, label: str, values: list[Any] | None = None
+) -> dict[str, Any]:
+    """IQM, mean and optimality gap of ``metric`` over ``runs`` (or of ``values``, one per run,
+    when given), each with its 95 % stratified bootstrap interval (strata: world × noise level;
+    ``label`` seeds the bootstrap); ``n``: runs with a value."""
     from nbv_gym.reporting.inference import iqm, optimality_gap, stratified_interval
 
-    values = np.array([_number(run[metric]) for run in runs], dtype=float)
+    given = values if values is not None else [run[metric] for run in runs]
+    numbers = np.array([_number(value) for value in given], dtype=float)
     strata = [(run["world"], run["noise"]) for run in runs]
     seed = int.from_bytes(hashlib.sha256(label.encode()).digest()[:4], "big")
     rng = np.random.default_rng([BOOTSTRAP_SEED, seed])
     gap = partial(optimality_gap, target=TARGET_SCORE)
-    out: dict[str, Any] = {"n": int(np.isfinite(values).sum())}
+    out: dict[str, Any] = {"n": int(np.isfinite(numbers).sum())}
     for name, statistic in (("iqm", iqm), ("mean", np.mean), ("optimality_gap", gap)):
-        interval = stratified_interval(values, strata, statistic, rng)
+        interval = stratified_interval(numbers, strata, statistic, rng)
         out.update(
             {name: interval.mean, f"{name}_low": interval.low, f"{name}_high": interval.high}
         )
@@ -183,8 +232,19 @@ def write_scorecard(card: dict[str, Any], out: Path) -> tuple[Path, Path]:
 
 
 def dumps_strict(data: Any) -> str:
-    """``data`` as JSON that every parser accepts: NaN and ±inf written as ``null``."""
-    return dumps_json(data, indent=1) + "\n"
+    """``data`` as JSON that every parser accepts: NaN and ±inf written as ``null``; arrays of
+    numbers on one line (a scorecard holds two curves per run)."""
+    return _NUMBER_ARRAY.sub(_one_line, dumps_json(data, indent=1)) + "\n"
+
+
+#: A JSON array of numbers and nulls spread over lines by ``indent``.
+_NUMBER_ARRAY = re.compile(
+    r"\[\s*((?:-?[0-9][0-9.eE+-]*|null)(?:,\s*(?:-?[0-9][0-9.eE+-]*|null))*)\s*\]"
+)
+
+
+def _one_line(match: re.Match[str]) -> str:
+    return "[" + re.sub(r",\s+", ", ", match.group(1)) + "]"
 
 
 def load_scorecard(path: str | Path) -> dict[str, Any]:
@@ -244,15 +304,51 @@ def scorecard_markdown(card: dict[str, Any]) -> str:
         for split, agg in card["aggregates"].items()
     ]
     lines += [markdown_table(["split", *assets], asset_rows), ""]
+    lines += _effort_markdown(card)
     return "\n".join(lines)
+
+
+def _effort_markdown(card: dict[str, Any]) -> list[str]:
+    """The effort section of :func:`scorecard_markdown`: per split, Q at the time budget and at
+    matched path (IQM [95 % interval]) and the mean elapsed time ([] for cards without it)."""
+    from nbv_gym.benchmark.curves import MATCHED_PATHS_M
+    from nbv_gym.reporting.formatting import markdown_table
+
+    rows = []
+    for part in card["suite"]["parts"]:
+        effort = card["aggregates"][part["split"]].get("effort")
+        if not effort:
+            continue
+        at_budget, at_path = effort["q_at_budget"], effort["q_at_path"]
+        rows.append([
+            part["split"], part["task"],
+            interval_text(at_budget, "iqm") if at_budget else "—",
+            *(interval_text(at_path[f"{d:g}"], "iqm") for d in MATCHED_PATHS_M),
+            _fixed(effort["elapsed_s"], 0),
+        ])  # fmt: skip
+    if not rows:
+        return []
+    header = ["split", "task", "Q at the time budget", *(f"Q at {d:g} m" for d in MATCHED_PATHS_M),
+              "robot time (s)"]  # fmt: skip
+    return [
+        "## Q over effort (IQM [95 % interval])",
+        "",
+        "Time budget: travel and scans charged (path / speed + scans × scan time). Q at D m: Q "
+        "after the last scan within D metres of path (the final Q if the run drove less).",
+        "",
+        markdown_table(header, rows),
+        "",
+    ]
 
 
 def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
     """One split's row of the scorecard's Markdown table."""
+    from nbv_gym.core.protocol import TASK_CHARGES
+
     s, means = agg["all"], agg["means"]
     return [
         part["split"],
-        part["task"],
+        f"{part['task']} ({TASK_CHARGES[part['task']]})",
         _METRIC_LABELS[agg["metric"]],
         s["n"],
         interval_text(s, "iqm"),
@@ -272,7 +368,11 @@ def interval_text(summary: dict[str, Any], name: str, digits: int = 4) -> str:
     return f"{value:.{digits}f} [{_fixed(low, digits)}, {_fixed(high, digits)}]"
 
 
-_METRIC_LABELS = {"q": "Q after the budget", "q_paper_70": "Q_paper at 70 %"}
+_METRIC_LABELS = {
+    "q_time_auc": "area under Q(t) / budget",
+    "q": "Q after the budget",
+    "q_paper_70": "Q_paper at 70 %",
+}
 
 
 def _fixed(value: Any, digits: int = 4) -> str:

@@ -39,11 +39,14 @@ def score_policy(
     progress: bool = True,
     python_path: tuple[str, ...] = (),
     say: Callable[[str], None] | None = None,
+    scheduler: str | None = None,
 ) -> dict[str, Any]:
     """Run every run of ``suite`` for ``policy`` not yet finished in ``out``, then write
     ``out/scorecard.json`` and ``out/scorecard.md``; the scorecard. ``workers``: local worker
-    processes (default: all cores); ``python_path``: folders where a ``module:Class`` policy is
-    found; ``say``: where phase messages go (default: stderr)."""
+    processes (default: all cores), or LocalCluster workers; ``scheduler``: a Dask scheduler
+    address or ``"local"`` (as for sweeps; the runs and so the scorecard are the same as a
+    local scoring's); ``python_path``: folders where a ``module:Class`` policy is found;
+    ``say``: where phase messages go (default: stderr)."""
     from nbv_gym.core.outputs import writable_folder
     from nbv_gym.sweep.runner import default_workers, run_sweep
 
@@ -58,7 +61,7 @@ def score_policy(
         say(f"{part.split}: {part.task} task, {part.runs} runs on {len(part.worlds)} worlds")
         summary = run_sweep(
             part_config(suite, part, policy, sources), out / "parts" / part.split,
-            workers, None, python_path, progress,
+            workers, scheduler, python_path, progress,
         )  # fmt: skip
         if summary.failed:
             raise ScoreError(
@@ -121,6 +124,7 @@ def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
         max_steps=part.max_steps,
         task=part.task,
         budget_scans=part.budget_scans,
+        time_budget_s=part.time_budget_s,
     )
 
 
@@ -146,11 +150,19 @@ def part_runs(
 
 
 def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
-    """One run's entry of the scorecard from its sweep record (``run`` row and ``steps``)."""
+    """One run's entry of the scorecard from its sweep record (``run`` row and ``steps``): the
+    final figures, Q at 70 % discovered, and Q over effort (:mod:`nbv_gym.benchmark.curves`):
+    on the time and path grids, and the normalised area under Q(t) over the time task's
+    budget (None in the other tasks)."""
+    from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S, area_under, grid_curve
     from nbv_gym.core.protocol import DISCOVERED_TARGET
     from nbv_gym.reporting.inference import q_curve
 
     run, steps = record["run"], record["steps"]
+    q = [step["q"] for step in steps]
+    elapsed = [step["elapsed_s"] for step in steps]
+    path = [step["path_length_m"] for step in steps]
+    auc = area_under(elapsed, q, part.time_budget_s) if part.task == "time" else None
     target = DISCOVERED_TARGET
     discovered = [step["discovered"] for step in steps]
     q_paper_70 = q_curve(discovered, [step["q_paper"] for step in steps], [target])[0]
@@ -169,6 +181,10 @@ def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
         "q_paper_70": float(q_paper_70),
         "discovered": run["discovered"],
         "path_length_m": run["path_length_m"],
+        "elapsed_s": elapsed[-1],
+        "q_time_auc": auc,
+        "q_time": grid_curve(elapsed, q, TIME_GRID_S),
+        "q_path": grid_curve(path, q, PATH_GRID_M),
         "decision_time_s": run.get("decision_time_s"),
         "wall_time_s": run["wall_time_s"],
     }

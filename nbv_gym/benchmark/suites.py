@@ -3,11 +3,15 @@
 A :class:`Suite` is a few :class:`Part` s, each a sweep of one policy over worlds × noise levels ×
 repeats under one task:
 
+- ``time-test``: the time task (:data:`~nbv_gym.core.protocol.TIME_BUDGET_S` seconds of robot time,
+  travel and scans charged) on the generated test split; score: the normalised area under Q
+  against elapsed time over [0, budget] — the headline figure of the leaderboard;
+- ``time-benchmark``: the time task on the paper's twelve benchmark worlds;
 - ``benchmark``: the budget task (:data:`~nbv_gym.core.protocol.BUDGET_SCANS` scans, no early end) on
   the paper's twelve benchmark worlds; score: Q after the budget;
 - ``test``: the budget task on the generated test split (:mod:`nbv_gym.benchmark.testsplit`), whose
-  recipe differs from the benchmark and the training pools; score: Q after the budget — the
-  headline figure of the leaderboard;
+  recipe differs from the benchmark and the training pools; score: Q after the budget (equal
+  scans, travel free);
 - ``explore``: the paper's protocol (explore until 70 % of the ground is discovered, at most
   100 steps) on the twelve benchmark worlds; score: Q_paper at 70 % discovered.
 
@@ -37,6 +41,7 @@ from nbv_gym.core.protocol import (
     BUDGET_SCANS,
     EXPLORE_MAX_STEPS,
     NOISE_LEVELS,
+    TIME_BUDGET_S,
     check_task,
     task_episode,
 )
@@ -44,21 +49,25 @@ from nbv_gym.worlds.spec import WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
 #: different versions are never compared.
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 #: The paper's twelve benchmark worlds.
 BENCHMARK_WORLDS = tuple(
     f"pp{p}-{asset}" for p in (1, 2, 3) for asset in ("cuboids", "crosses", "helicoids", "trees")
 )
-#: The score of each task: Q after the budget; Q_paper at the explore task's 70 % discovered.
-TASK_METRICS = {"budget": "q", "explore": "q_paper_70"}
+#: The score of each task: the normalised area under Q(t) over the time budget; Q after the
+#: scan budget; Q_paper at the explore task's 70 % discovered.
+TASK_METRICS = {"time": "q_time_auc", "budget": "q", "explore": "q_paper_70"}
+#: The split whose score ranks the leaderboard.
+HEADLINE_SPLIT = "time-test"
 
 
 @dataclass(frozen=True)
 class Part:
-    """One sweep of a suite: ``split`` (its name in the scorecard), ``task`` (``budget`` or
-    ``explore``), ``worlds`` (benchmark world names or generated :class:`WorldSpec` s), localisation
-    ``noise`` levels and ``repeats`` per world and noise level; ``budget_scans`` (budget task) and
-    ``max_steps`` (explore task) as in :mod:`nbv_gym.core.protocol`."""
+    """One sweep of a suite: ``split`` (its name in the scorecard), ``task`` (``time``, ``budget``
+    or ``explore``), ``worlds`` (benchmark world names or generated :class:`WorldSpec` s),
+    localisation ``noise`` levels and ``repeats`` per world and noise level; ``budget_scans``
+    (budget task), ``time_budget_s`` (time task) and ``max_steps`` (explore task) as in
+    :mod:`nbv_gym.core.protocol`."""
 
     split: str
     task: str
@@ -67,6 +76,7 @@ class Part:
     repeats: int = 3
     budget_scans: int = BUDGET_SCANS
     max_steps: int = EXPLORE_MAX_STEPS
+    time_budget_s: float = TIME_BUDGET_S
 
     def __post_init__(self) -> None:
         check_task(self.task)
@@ -95,7 +105,7 @@ class Part:
 
         config = EnvConfig()
         episode = replace(config.simulator.episode, max_steps=self.max_steps)
-        episode = task_episode(self.task, episode, self.budget_scans)
+        episode = task_episode(self.task, episode, self.budget_scans, self.time_budget_s)
         return replace(config, simulator=replace(config.simulator, episode=episode))
 
     def description(self) -> dict[str, Any]:
@@ -109,6 +119,7 @@ class Part:
             "repeats": self.repeats,
             "budget_scans": self.budget_scans if self.task == "budget" else None,
             "max_steps": self.max_steps if self.task == "explore" else None,
+            "time_budget_s": self.time_budget_s if self.task == "time" else None,
             "runs": self.runs,
         }
 
@@ -151,18 +162,23 @@ SUITE_SEED = 7919
 STANDARD = Suite(
     "standard",
     (
+        Part("time-test", "time", split_worlds()),
+        Part("time-benchmark", "time", BENCHMARK_WORLDS),
         Part("benchmark", "budget", BENCHMARK_WORLDS),
         Part("test", "budget", split_worlds()),
         Part("explore", "explore", BENCHMARK_WORLDS),
     ),
     SUITE_SEED,
-    "budget task on the 12 benchmark worlds and the 16 test worlds, explore task on the 12 "
-    "benchmark worlds; noise 0, 1, 2; 3 repeats",
+    "time task (equal robot time, travel and scans charged) and budget task (equal scans, "
+    "travel free) on the 16 test worlds and the 12 benchmark worlds, explore task (the paper's "
+    "protocol) on the 12 benchmark worlds; noise 0, 1, 2; 3 repeats",
 )
 _QUICK_WORLDS = tuple(w for w in BENCHMARK_WORLDS if w.startswith("pp1-"))
 QUICK = Suite(
     "quick",
     (
+        Part("time-test", "time", split_worlds(range(4)), repeats=2),
+        Part("time-benchmark", "time", _QUICK_WORLDS, repeats=2),
         Part("benchmark", "budget", _QUICK_WORLDS, repeats=2),
         Part("test", "budget", split_worlds(range(4)), repeats=2),
         Part("explore", "explore", _QUICK_WORLDS, repeats=2),

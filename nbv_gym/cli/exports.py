@@ -10,7 +10,16 @@ from typing import Annotated
 
 import typer
 
-from nbv_gym.cli.options import BudgetScansOption, MaxStepsOption, TaskOption, task_of
+from nbv_gym.cli.options import (
+    BudgetScansOption,
+    MaxStepsOption,
+    ScanTimeOption,
+    SpeedOption,
+    TaskOption,
+    TimeBudgetOption,
+    task_episode_config,
+    task_of,
+)
 from nbv_gym.cli.params import COUNT, FINITE, NOISE_HELP, NOISE_LEVEL, POSITIVE_COUNT, PROBABILITY
 from nbv_gym.mapping.mapfile import load_map
 
@@ -120,6 +129,9 @@ def record(
     task: TaskOption = None,
     budget_scans: BudgetScansOption = None,
     max_steps: MaxStepsOption = None,
+    time_budget_s: TimeBudgetOption = None,
+    speed_mps: SpeedOption = None,
+    scan_time_s: ScanTimeOption = None,
     dataset_id: Annotated[
         str | None, typer.Option(help="Minari dataset id (default: nbv-gym/WORLD/POLICY-v0).")
     ] = None,
@@ -141,18 +153,25 @@ def record(
           --max-steps 30 --out data/cf
       nbv-gym record --policy ppo-budget --world pp3-trees --episodes 5 \\
           --out data/ppo  # its own task: budget, 12 scans
+      nbv-gym record --policy ig-unknown --world pp1-trees --task time \\
+          --time-budget-s 300 --out data/ig
     """
-    from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS
     from nbv_gym.rl.dataset import record_dataset
 
-    task, budget_scans = task_of(policy, task, budget_scans, max_steps)
-    steps = budget_scans or BUDGET_SCANS if task == "budget" else max_steps or EXPLORE_MAX_STEPS
+    task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
+    episode = task_episode_config(
+        task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
+    )
+    steps = episode.max_steps
+    effort = {"speed_mps": episode.speed_mps, "scan_time_s": episode.scan_time_s}
+    if task == "time":
+        effort["time_budget_s"] = episode.time_budget_s
 
     def progress(message: str) -> None:
         print(message, file=sys.stderr, flush=True)
 
     dataset = record_dataset(
         policy, world, out, episodes=episodes, noise=noise, seed=seed, max_steps=steps,
-        dataset_id=dataset_id, progress=progress, task=task,
+        dataset_id=dataset_id, progress=progress, task=task, effort=effort,
     )  # fmt: skip
     typer.echo(f"{dataset.total_episodes} episodes, {dataset.total_steps} steps → {out}")

@@ -9,7 +9,16 @@ from typing import Annotated, NoReturn
 
 import typer
 
-from nbv_gym.cli.options import BudgetScansOption, MaxStepsOption, TaskOption, task_of
+from nbv_gym.cli.options import (
+    BudgetScansOption,
+    MaxStepsOption,
+    ScanTimeOption,
+    SpeedOption,
+    TaskOption,
+    TimeBudgetOption,
+    task_episode_config,
+    task_of,
+)
 from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.jsonfiles import dumps_json
@@ -179,6 +188,9 @@ def run(
     task: TaskOption = None,
     budget_scans: BudgetScansOption = None,
     max_steps: MaxStepsOption = None,
+    time_budget_s: TimeBudgetOption = None,
+    speed_mps: SpeedOption = None,
+    scan_time_s: ScanTimeOption = None,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
     force: Annotated[
@@ -191,7 +203,7 @@ def run(
     """Run one episode of a policy and write a self-describing run folder.
 
     The folder holds steps.csv (step, goal, discovered, q, q_paper, reward, path_length_m,
-    time_s), summary.json (config, final figures, wall time, versions), map.npz,
+    elapsed_s: the robot's time under the effort model, time_s: wall time), summary.json (config, final figures, wall time, versions), map.npz,
     statistics.npz and exploration.gif. A folder holding an earlier run is refused unless
     --force is given; the new run's files then replace the old ones only when it finished (a
     crash leaves the earlier run intact). A sweep's folder is always refused.
@@ -203,24 +215,25 @@ def run(
           --seed 0 --out runs/cf
       nbv-gym run --policy ppo-budget --world pp3-trees  # budget: 12 scans
       nbv-gym run --policy nbv-nobs --task budget --budget-scans 20
+      nbv-gym run --policy ig-unknown --task time --time-budget-s 300
       nbv-gym run --policy my_module:MyPolicy --world my_world.toml \\
           --no-animation --json
       nbv-gym run --world pp1-trees --out runs/cf --force
     """
 
     from nbv_gym.core.outputs import claim_folder, staged_folder
-    from nbv_gym.core.protocol import EpisodeConfig, task_episode
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import is_oracle, load_policy
     from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.worlds import load_spec
 
-    task, budget_scans = task_of(policy, task, budget_scans, max_steps)
+    task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
+    episode = task_episode_config(
+        task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
+    )
     run_files = _check_run_folder(out, force)  # a bad --out fails before the world is built
     agent = load_policy(policy)
-    episode = EpisodeConfig() if max_steps is None else EpisodeConfig(max_steps=max_steps)
-    episode = task_episode(task, episode, budget_scans)
     simulator = SimulatorConfig(world=world, noise=noise, episode=episode)
     load_spec(world)  # a bad world name or spec fails before the world is built
     env = make_env(EnvConfig(simulator), agent, render=animation)
@@ -230,7 +243,8 @@ def run(
     def report(row: dict, env) -> None:
         _stderr(
             f"step {row['step']:>3}  discovered {row['discovered']:6.1%}  Q {row['q']:.4f}  "
-            f"Q_paper {row['q_paper']:.4f}  path {row['path_length_m']:6.1f} m"
+            f"Q_paper {row['q_paper']:.4f}  path {row['path_length_m']:6.1f} m  "
+            f"time {row['elapsed_s']:6.1f} s"
         )
         if animation:
             frames.append(env.render())  # full resolution: halving it aliased
@@ -254,7 +268,8 @@ def run(
         f"seed {seed}): {final['step']} steps, "
         f"discovered {final['discovered']:.1%}, Q {final['q']:.4f}, "
         f"Q_paper {final['q_paper']:.4f}, path {final['path_length_m']:.1f} m, "
-        f"{result.wall_time_s:.1f} s — {result.end_reason}"
+        f"robot time {final['elapsed_s']:.1f} s, {result.wall_time_s:.1f} s wall — "
+        f"{result.end_reason}"
     )
     typer.echo(f"run folder: {out}")
 

@@ -22,17 +22,30 @@ def score(
         str, typer.Option(help="Evaluation suite: standard (the score) or quick (for trying).")
     ] = "standard",
     workers: Annotated[
-        int | None, typer.Option(help="Local worker processes, ≥ 1 [default: all cores].")
+        int | None,
+        typer.Option(
+            help="Local worker processes, or LocalCluster workers, ≥ 1 [default: all cores]."
+        ),
+    ] = None,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            help="Run on the Dask cluster at this address (tcp://host:8786; tls://host:8786 with "
+            "Dask's TLS settings, see docs/security.md), or 'local' for a new Dask LocalCluster; "
+            "the same scorecard as a local run. Needs nbv-gym[dist]."
+        ),
     ] = None,
     progress: Annotated[bool, typer.Option(help="Show progress bars on stderr.")] = True,
 ) -> None:
     """Score a policy on a fixed evaluation suite and write OUT/scorecard.json and scorecard.md.
 
-    The standard suite runs the budget task (12 scans) on the 12 benchmark worlds and on 16
-    generated test worlds, and the paper's explore task on the 12 benchmark worlds, at noise 0,
-    1 and 2 with fixed seeds (360 runs); quick is the same shape, small (72 runs). The scorecard
-    holds every run's figures and, per split and asset type, the IQM and mean with 95 %
-    stratified bootstrap intervals and the optimality gap. Killed, the same command resumes.
+    The standard suite runs the time task (600 s of robot time: travel at 1 m/s and 10 s per
+    scan charged) and the budget task (12 scans, travel free) on the 16 generated test worlds and
+    the 12 benchmark worlds, and the paper's explore task on the 12 benchmark worlds, at noise 0,
+    1 and 2 with fixed seeds (612 runs); quick is the same shape, small (120 runs). The
+    scorecard holds every run's figures (with Q against elapsed time and path length) and, per
+    split and asset type, the IQM and mean with 95 % stratified bootstrap intervals and the
+    optimality gap, and Q at the time budget and at matched path (25–200 m). Killed, the same command resumes.
     Compare scorecards with `nbv-gym leaderboard`. A module:Class policy is imported from the
     current folder.
 
@@ -41,6 +54,7 @@ def score(
     \b
       nbv-gym score closest-frontier --suite quick --out scores/cf-quick
       nbv-gym score my_policies:MyPolicy --out scores/mine --workers 2
+      nbv-gym score nbv-sigma --out scores/sigma --scheduler tls://HOST:8786
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
     """
     from nbv_gym.benchmark.scorecard import interval_text
@@ -48,13 +62,17 @@ def score(
     from nbv_gym.benchmark.suites import get_suite
     from nbv_gym.cli.sweep import resumable
     from nbv_gym.core.config import check
+    from nbv_gym.sweep.backends import check_scheduler
 
     check(workers is None or workers >= 1, "--workers", f"must be ≥ 1, got {workers}")
+    check_scheduler(scheduler)
     chosen = get_suite(suite)
     with resumable(out / "parts"):
-        card = score_policy(policy, chosen, out, workers, progress, (os.getcwd(),))
+        card = score_policy(
+            policy, chosen, out, workers, progress, (os.getcwd(),), scheduler=scheduler
+        )
     for split, agg in card["aggregates"].items():
-        typer.echo(f"{split:<10} {agg['metric']:<11} IQM {interval_text(agg['all'], 'iqm')}")
+        typer.echo(f"{split:<14} {agg['metric']:<11} IQM {interval_text(agg['all'], 'iqm')}")
     typer.echo(f"scorecard: {out / 'scorecard.json'} ({card['timing']['wall_time_s']:.0f} s)")
 
 
@@ -72,11 +90,14 @@ def leaderboard(
 ) -> None:
     """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html).
 
-    Ranked by the IQM of Q after the budget on the test split; columns per split, Q_paper at
-    70 %, discovered fraction, path length, decision time, and the probability that the policy
-    beats the best reference, with 95 % stratified-bootstrap intervals; performance profiles as
-    a figure. Oracles (policies reading privileged values) are ranked apart. Scorecards of
-    different suites or protocol versions are refused.
+    Ranked by the IQM of the area under Q(t) over the time budget (equal robot time: travel
+    and scans charged) on the test split; columns per split and task, each naming what it
+    charges (equal scans with travel free; the paper's protocol), the probability that the
+    policy scores higher than the best reference, with 95 % stratified-bootstrap intervals; Q at
+    the budget and at matched path, the Pareto front of (Q, path); Q(t) and performance
+    profiles as figures. Oracles (policies reading privileged values) are ranked apart.
+    Scorecards of different suites or protocol versions are refused; shipped references of
+    another protocol version are left out, and the board says they are pending.
 
     Examples:
 

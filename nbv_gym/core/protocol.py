@@ -1,31 +1,49 @@
-"""The benchmark's protocol in one place (docs/protocol.md#tasks): the tasks and their Gymnasium
-ids (registered on ``import nbv_gym``), their numbers, the localisation-noise levels and the
-episode config every task is built from.
+"""The benchmark's protocol in one place (docs/protocol.md#tasks): the three tasks and their
+Gymnasium ids (registered on ``import nbv_gym``), their numbers, the effort model that charges a
+robot's time, the localisation-noise levels and the episode config every task is built from.
 
 - ``explore`` — ``nbv_gym/Explore-v0``, the paper's protocol: an episode terminates at
   :data:`DISCOVERED_TARGET` of the ground discovered and is truncated at
   :data:`EXPLORE_MAX_STEPS` steps.
-- ``budget`` — ``nbv_gym/ExploreBudget-v0``, equal scans with travel free: a fixed budget of scans
-  (:data:`BUDGET_SCANS` by default), never terminated by the discovered fraction, truncated at the
-  budget. The reward is ΔQ in both, so a budget episode's return is Q after the budget minus Q
-  after the first scan; its score is Q after the budget (and the area under Q against scans).
+- ``budget`` — ``nbv_gym/ExploreBudget-v0``, equal scans with travel free: a fixed budget of
+  scans (:data:`BUDGET_SCANS` by default), never terminated by the discovered fraction,
+  truncated at the budget. The robot teleports, so the budget equalises scans only. The reward
+  is ΔQ in both, so a budget episode's return is Q after the budget minus Q after the first
+  scan; its score is Q after the budget (and the area under Q against scans).
+- ``time`` — ``nbv_gym/ExploreTime-v0``, equal robot time (travel and scans charged): a budget
+  of :data:`TIME_BUDGET_S` seconds under the :class:`EffortModel`; a goal whose travel and scan
+  would overrun the remaining time is not valid, and the episode ends when no goal fits in
+  what is left. Its score is the area under Q against elapsed time and Q at the budget.
+
+The effort model (stated here once): the time a robot has spent after ``scans`` scans that
+followed the first one and a path of ``path_m`` metres is ``path_m / speed_mps + scans ·
+scan_time_s``. The first scan, taken where the robot starts, is at time 0 (every task counts
+scans after the first one).
 
 This module imports nothing heavy: ``import nbv_gym`` reads it to register the ids.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import ConfigError
 
-TASKS = ("explore", "budget")
+TASKS = ("explore", "budget", "time")
 EXPLORE_ID = "nbv_gym/Explore-v0"
 BUDGET_ID = "nbv_gym/ExploreBudget-v0"
+TIME_ID = "nbv_gym/ExploreTime-v0"
 #: Gymnasium id of each task.
-TASK_IDS = {"explore": EXPLORE_ID, "budget": BUDGET_ID}
+TASK_IDS = {"explore": EXPLORE_ID, "budget": BUDGET_ID, "time": TIME_ID}
+#: What each task charges, for every table and figure that shows its results.
+TASK_CHARGES = {
+    "explore": "the paper's protocol: until 70 % discovered, scans and travel free",
+    "budget": "equal scans, travel free",
+    "time": "equal robot time: travel and scans charged",
+}
 #: Truncation of the explore task (``EpisodeConfig.max_steps``).
 EXPLORE_MAX_STEPS = 100
 #: Default budget of the budget task: scans after the first one. Measured at noise 1 (pp1-cuboids,
@@ -48,14 +66,64 @@ def check_noise_level(level: object, key: str = "noise") -> None:
     check(level in NOISE_LEVELS, key, f"expected one of {levels}, got {level!r}")
 
 
+#: Driving speed of the effort model, m/s: the Clearpath Husky's top speed (1.0 m/s, Clearpath
+#: Robotics' Husky datasheet), the robot of the paper's experiments (Aravecchia et al.,
+#: "Next-Best-View selection from observation viewpoint statistics", IROS 2023).
+SPEED_MPS = 1.0
+#: Time one stop-and-scan costs besides driving, s: stopping from 1 m/s and settling, one
+#: stationary revolution of the lidar (0.1 s at 10 Hz), inserting it into the map and choosing
+#: the next goal. Chosen, not measured (docs/protocol.md#effort): at 10 s a scan costs as much
+#: time as 10 m of driving.
+SCAN_TIME_S = 10.0
+#: Default budget of the time task, s (docs/protocol.md#effort says why).
+TIME_BUDGET_S = 600.0
+
+
+@dataclass(frozen=True)
+class EffortModel:
+    """The time a robot spends: ``path_m / speed_mps + scans · scan_time_s`` (module docstring).
+
+    Args:
+        speed_mps: driving speed, m/s (> 0).
+        scan_time_s: the time of one stop-and-scan besides driving, s (≥ 0).
+    """
+
+    speed_mps: float = SPEED_MPS
+    scan_time_s: float = SCAN_TIME_S
+
+    def __post_init__(self) -> None:
+        check(self.speed_mps > 0, "speed_mps", f"must be > 0, got {self.speed_mps}")
+        check(self.scan_time_s >= 0, "scan_time_s", f"must be ≥ 0, got {self.scan_time_s}")
+
+    def elapsed_s(self, path_m: float, scans: int) -> float:
+        """Seconds spent after driving ``path_m`` metres and taking ``scans`` scans (after the
+        first)."""
+        return path_m / self.speed_mps + scans * self.scan_time_s
+
+    def reach_m(self, remaining_s: float) -> float:
+        """The longest path, metres, whose drive and scan fit in ``remaining_s`` seconds
+        (negative when not even a scan fits)."""
+        return (remaining_s - self.scan_time_s) * self.speed_mps
+
+    def scan_cap(self, time_budget_s: float) -> int:
+        """A number of scans no episode of ``time_budget_s`` can reach (each goal costs more
+        than a scan, since it lies in another cell): the time task's ``max_steps``, a cap that
+        never binds."""
+        per_scan = self.scan_time_s or 1.0 / self.speed_mps  # every goal is ≥ 1 m away
+        return max(1, math.ceil(time_budget_s / per_scan) + 1)
+
+
 @dataclass(frozen=True)
 class EpisodeConfig:
     """When an episode ends and how steps are rewarded.
 
     An episode terminates when the discovered fraction reaches ``discovered_target`` (never when
-    it is None: the budget task) and is truncated after ``max_steps`` steps or when no goal is
-    valid. Reward = ΔQ − ``path_penalty_per_m`` · path length of the step. The robot starts at
-    ``start_xy_m`` heading ``start_yaw_rad``.
+    it is None: the budget and time tasks) and is truncated after ``max_steps`` steps or when no
+    goal is valid. With a ``time_budget_s`` (the time task), a goal whose drive and scan would
+    overrun the remaining time is not valid, so the episode ends when the budget is spent.
+    Time is charged by the effort model (:class:`EffortModel`) of
+    ``speed_mps`` and ``scan_time_s``, in every task. Reward = ΔQ − ``path_penalty_per_m`` · path
+    length of the step. The robot starts at ``start_xy_m`` heading ``start_yaw_rad``.
     """
 
     max_steps: int = EXPLORE_MAX_STEPS
@@ -63,6 +131,9 @@ class EpisodeConfig:
     path_penalty_per_m: float = 0.0
     start_xy_m: tuple[float, float] = (0.0, 0.0)
     start_yaw_rad: float = 0.0
+    time_budget_s: float | None = None
+    speed_mps: float = SPEED_MPS
+    scan_time_s: float = SCAN_TIME_S
 
     def __post_init__(self) -> None:
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
@@ -72,16 +143,35 @@ class EpisodeConfig:
             "must be in (0, 1], or None for no termination",
         )
         check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
+        check(
+            self.time_budget_s is None or self.time_budget_s > 0,
+            "time_budget_s",
+            f"must be > 0, or None for no time budget, got {self.time_budget_s}",
+        )
+        EffortModel(self.speed_mps, self.scan_time_s)  # checks both
+
+    @property
+    def effort(self) -> EffortModel:
+        """The effort model of ``speed_mps`` and ``scan_time_s``."""
+        return EffortModel(self.speed_mps, self.scan_time_s)
 
 
-def task_episode(task: str, episode: Any, budget_scans: int | None = None) -> Any:
-    """``episode`` (an :class:`~nbv_gym.simulator.EpisodeConfig`) for ``task``: unchanged for
+def task_episode(
+    task: str, episode: Any, budget_scans: int | None = None, time_budget_s: float | None = None
+) -> Any:
+    """``episode`` (an :class:`EpisodeConfig`) for ``task``: unchanged for
     ``explore``; for ``budget`` without termination and with ``max_steps`` = ``budget_scans``
-    (default :data:`BUDGET_SCANS`)."""
+    (default :data:`BUDGET_SCANS`); for ``time`` without termination, with ``time_budget_s``
+    (default: the episode's own, else :data:`TIME_BUDGET_S`) and the scan cap that never binds
+    (:meth:`EffortModel.scan_cap`) as ``max_steps``."""
     check_task(task)
     if task == "explore":
         return episode
-    return replace(episode, discovered_target=None, max_steps=budget_scans or BUDGET_SCANS)
+    if task == "budget":
+        return replace(episode, discovered_target=None, max_steps=budget_scans or BUDGET_SCANS)
+    budget = time_budget_s or episode.time_budget_s or TIME_BUDGET_S
+    cap = episode.effort.scan_cap(budget)
+    return replace(episode, discovered_target=None, time_budget_s=budget, max_steps=cap)
 
 
 def check_task(task: str) -> None:

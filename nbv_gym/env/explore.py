@@ -1,5 +1,6 @@
-"""``nbv_gym/Explore-v0`` and ``nbv_gym/ExploreBudget-v0`` (:mod:`nbv_gym.core.protocol`): the Gymnasium
-environment around the :class:`~nbv_gym.simulator.Simulator`.
+"""``nbv_gym/Explore-v0``, ``nbv_gym/ExploreBudget-v0`` and ``nbv_gym/ExploreTime-v0``
+(:mod:`nbv_gym.core.protocol`): the Gymnasium environment around the
+:class:`~nbv_gym.simulator.Simulator`.
 
 Action: ``Discrete(nx · ny)``, a goal cell of G's nx × ny x, y cells (row-major; 60 × 60 = 3600 on
 every world of a 60 m window, more on larger worlds: ``MappingConfig.fit_to_world``);
@@ -110,8 +111,14 @@ class ExploreEnv(gymnasium.Env):
     Args:
         render_mode: None or "rgb_array".
         config: an :class:`EnvConfig` (or a dict of its fields).
-        task: ``"explore"`` (the paper's protocol) or ``"budget"`` (``max_steps`` scans, no
-            termination; :mod:`nbv_gym.core.protocol`); ``nbv_gym/ExploreBudget-v0`` sets it.
+        task: ``"explore"`` (the paper's protocol), ``"budget"`` (``max_steps`` scans, no
+            termination) or ``"time"`` (a time budget: travel and scans charged;
+            :mod:`nbv_gym.core.protocol`); ``nbv_gym/ExploreBudget-v0`` and
+            ``nbv_gym/ExploreTime-v0`` set it. In the time task ``info`` also holds the robot's
+            clock, ``elapsed_s`` and ``remaining_s``.
+        time_budget_s, speed_mps, scan_time_s: the time task's budget (s) and the effort model's
+            speed (m/s) and scan time (s), shortcuts for ``simulator.episode``'s fields (the
+            speed and scan time charge time in every task; a budget is the time task's).
         world, noise, max_steps, observation_layers, invalid_action, world_pool_size, episodes_per_world: shortcuts overriding the config's ``simulator.world``,
             ``simulator.noise``, ``simulator.episode.max_steps``, ``observation_layers``,
             ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. Through
@@ -134,6 +141,9 @@ class ExploreEnv(gymnasium.Env):
         invalid_action: str | None = None,
         world_pool_size: int | None = None,
         episodes_per_world: int | None = None,
+        time_budget_s: float | None = None,
+        speed_mps: float | None = None,
+        scan_time_s: float | None = None,
     ):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise gymnasium.error.Error(
@@ -144,23 +154,33 @@ class ExploreEnv(gymnasium.Env):
             "world_pool_size": world_pool_size,
             "episodes_per_world": episodes_per_world,
         }
-        self.config = _resolve(config, task, world, noise, max_steps, observation_layers, shortcuts)
+        effort = {
+            "time_budget_s": time_budget_s,
+            "speed_mps": speed_mps,
+            "scan_time_s": scan_time_s,
+        }
+        self.config = _resolve(
+            config, task, world, noise, max_steps, observation_layers, shortcuts, effort
+        )
         self.render_mode = render_mode
         self.worlds, self._world_index, self._world_episodes = _distribution(self.config), 0, 0
         first = self.worlds.world(0) if self.worlds else None
         self.sim = Simulator(self.config.simulator, world=first)
         self.optional = OptionalLayers(self.sim, self.config.observation_layers, self.config.nbv)
-        mapping = self.config.simulator.mapping
+        mapping, episode = self.config.simulator.mapping, self.config.simulator.episode
         self.observer = observation.Observer(
             self.sim.goal_grid,
             mapping.sensor_range_m,
             mapping.statistics.n_sectors,
-            self.config.simulator.episode.max_steps,
+            episode.max_steps,
+            episode.time_budget_s,
+            episode.speed_mps,
         )
         self.action_space = GoalSpace(self.sim.n_goals)
         self.action_space.bind(self._current_mask)
+        cost_high = self.observer.cost_high(mapping.navigation.cost_range_m)
         self.observation_space = observation.observation_space(
-            self.sim.n_goals, self.optional.bounds()
+            self.sim.n_goals, self.optional.bounds(), cost_high
         )
         self._last: StepOutcome | None = None
 
@@ -225,7 +245,9 @@ class ExploreEnv(gymnasium.Env):
     def _observation(self) -> dict[str, np.ndarray]:
         sim = self.sim
         optional = self.optional.compute(self._last)
-        return self.observer.observe(sim.navigation, sim.statistics, sim.pose, sim.steps, optional)
+        return self.observer.observe(
+            sim.navigation, sim.statistics, sim.pose, sim.steps, optional, sim.elapsed_s
+        )
 
     def _info(self) -> dict[str, Any]:
         outcome, sim = self._last, self.sim
@@ -252,15 +274,25 @@ class ExploreEnv(gymnasium.Env):
             "goal_grid_shape": sim.goal_grid.shape[:2],
             "goal_cell_m": sim.goal_grid.res,
             "cost_range_m": sim.config.mapping.navigation.cost_range_m,
+            **self._clock(),
             **self.optional.calibration(),
         }
+
+    def _clock(self) -> dict[str, float]:
+        """The time task's ``elapsed_s`` and ``remaining_s`` (none in the other tasks, whose
+        ``info`` stays as pinned; their elapsed time is the steps table's)."""
+        if self.config.simulator.episode.time_budget_s is None:
+            return {}
+        return {"elapsed_s": self.sim.elapsed_s, "remaining_s": self.sim.remaining_s}
 
 
 def _pose_tuple(pose) -> tuple[float, float, float, float]:
     return pose.x, pose.y, pose.z, pose.yaw
 
 
-def _resolve(config, task, world, noise, max_steps, observation_layers, shortcuts) -> EnvConfig:
+def _resolve(
+    config, task, world, noise, max_steps, observation_layers, shortcuts, effort
+) -> EnvConfig:
     """The :class:`EnvConfig` of ``config`` for ``task`` with the keyword shortcuts applied.
     The keywords go through the same typed checks as a config dict (:func:`from_dict`):
     ``max_steps=2.5`` or ``noise=True`` is refused naming the key, never coerced."""
@@ -269,7 +301,11 @@ def _resolve(config, task, world, noise, max_steps, observation_layers, shortcut
     world = str(world) if isinstance(world, os.PathLike) else world
     one_name = isinstance(observation_layers, str)  # refused by EnvConfig with a hint, below
     keywords = {
-        "simulator": {"world": world, "noise": noise, "episode": {"max_steps": max_steps}},
+        "simulator": {
+            "world": world,
+            "noise": noise,
+            "episode": {"max_steps": max_steps, **effort},
+        },
         "observation_layers": None if one_name else observation_layers,
         **shortcuts,
     }
@@ -281,7 +317,13 @@ def _resolve(config, task, world, noise, max_steps, observation_layers, shortcut
         resolved = from_dict(EnvConfig, merge(base, given))
     if one_name:
         resolved = replace(resolved, observation_layers=observation_layers)
-    episode = task_episode(task, resolved.simulator.episode, max_steps)
+    if effort.get("time_budget_s") is not None and task != "time":
+        raise ConfigError(
+            f"time_budget_s is the time task's budget; give task='time' (nbv_gym/ExploreTime-v0) "
+            f"or no time budget, got task={task!r}"
+        )
+    episode = resolved.simulator.episode
+    episode = task_episode(task, episode, None if task == "time" else max_steps)
     if max_steps is not None:
         episode = replace(episode, max_steps=max_steps)
     return replace(resolved, simulator=replace(resolved.simulator, episode=episode))

@@ -11,7 +11,9 @@ free       fraction that are known free (before erosion)
 occupied   fraction that are occupied
 frontier   1 on frontier goals (valid goals at the frontier)
 valid      1 on valid goals (the action mask)
-cost       min(path length / search range, 1); 1 on invalid goals
+cost       min(path length / search range, 1); 1 on invalid goals. In the time task not
+           clipped: path length / search range on every valid goal however far (up to
+           time budget · speed / search range), so a policy sees what a far goal costs
 distance   straight-line distance from the robot / the window's diagonal
 robot      1 in the robot's cell
 n_obs      log1p(Σ_z n_obs) / log1p(100 · nz), clipped to 1
@@ -21,7 +23,8 @@ sigma_theta max_z σ_θ
 ========== ===============================================================================
 
 ``state`` is ``[x / half-width, y / half-width, cos yaw, sin yaw, discovered fraction,
-steps / max_steps]``. Optional layers (the NBV gains) are added only when asked for.
+progress]``, progress being steps / max_steps (elapsed time / time budget in the time task).
+Optional layers (the NBV gains) are added only when asked for.
 
 An :class:`Observer` is built once from plain values (the goal grid, the sensor range, the number
 of sectors, the step limit) and reads the navigation layer and the statistics it is given; the
@@ -43,10 +46,14 @@ BASE_LAYERS = ("known", "free", "occupied", "frontier", "valid", "cost", "distan
 STATE_SIZE = 6
 
 
-def observation_space(n_goals: int, optional: dict[str, float]) -> spaces.Dict:
+def observation_space(
+    n_goals: int, optional: dict[str, float], cost_high: float = 1.0
+) -> spaces.Dict:
     """The Dict space of the base layers, the ``optional`` layers (name → upper bound) and the
-    robot state."""
+    robot state; ``cost_high``: the ``cost`` layer's upper bound (1 but in the time task,
+    :meth:`Observer.cost_high`)."""
     entries = {name: spaces.Box(0.0, 1.0, (n_goals,), np.float32) for name in BASE_LAYERS}
+    entries["cost"] = spaces.Box(0.0, max(cost_high, 1.0), (n_goals,), np.float32)
     for name, high in optional.items():
         entries[name] = spaces.Box(0.0, high, (n_goals,), np.float32)
     entries["state"] = spaces.Box(-2.0, 2.0, (STATE_SIZE,), np.float32)
@@ -61,18 +68,36 @@ class Observer:
         sensor_range_m: the sensor range that scales ``r_min``, metres.
         n_sectors: the azimuth sectors that scale ``n_omega``.
         max_steps: the step limit that scales the state's progress.
+        time_budget_s: the time task's budget, s (None in the other tasks): the ``cost`` layer
+            is then not clipped at 1 and the progress is elapsed time / the budget.
+        speed_mps: the effort model's driving speed, m/s (read with ``time_budget_s``).
     """
 
-    def __init__(self, goal_grid: GridSpec, sensor_range_m: float, n_sectors: int, max_steps: int):
+    def __init__(
+        self,
+        goal_grid: GridSpec,
+        sensor_range_m: float,
+        n_sectors: int,
+        max_steps: int,
+        time_budget_s: float | None = None,
+        speed_mps: float = 1.0,
+    ):
         self.shape = goal_grid.shape[:2]
         self.n_goals = self.shape[0] * self.shape[1]
         self.sensor_range_m = float(sensor_range_m)
         self.n_sectors = int(n_sectors)
         self.max_steps = int(max_steps)
+        self.time_budget_s = time_budget_s
+        #: the longest path the time budget can buy, metres (None: no time budget)
+        self.reach_m = None if time_budget_s is None else time_budget_s * speed_mps
         self._centres = goal_grid.xy_centres().T.copy()  # (2, n_goals): x row, y row
         self._diagonal = np.linalg.norm(goal_grid.high[:2] - goal_grid.low[:2])
         self._half = goal_grid.high[:2]
         self._n_obs_scale = np.log1p(100 * goal_grid.shape[2])
+
+    def cost_high(self, cost_range_m: float) -> float:
+        """The ``cost`` layer's upper bound with the navigation's ``cost_range_m``."""
+        return 1.0 if self.reach_m is None else max(1.0, self.reach_m / cost_range_m)
 
     def observe(
         self,
@@ -81,23 +106,29 @@ class Observer:
         pose: Pose,
         steps: int,
         optional: dict[str, np.ndarray] | None = None,
+        elapsed_s: float = 0.0,
     ) -> dict[str, np.ndarray]:
         """The observation: the base layers, the ``optional`` (n_goals,) layers and the state,
-        each a fresh float32 array (rows of one block)."""
+        each a fresh float32 array (rows of one block); ``elapsed_s``: the robot's clock (read
+        in the time task)."""
         block = np.empty((len(BASE_LAYERS), self.n_goals), np.float32)
         layers = dict(zip(BASE_LAYERS, block, strict=True))
         self._navigation_layers(navigation, pose, layers)
         self._statistics_layers(statistics, layers)
         for name, layer in (optional or {}).items():
             layers[name] = np.asarray(layer, np.float32).ravel()
-        layers["state"] = self.state(pose, navigation.discovered_fraction, steps)
+        layers["state"] = self.state(pose, navigation.discovered_fraction, steps, elapsed_s)
         return layers
 
-    def state(self, pose: Pose, discovered: float, steps: int) -> np.ndarray:
+    def state(
+        self, pose: Pose, discovered: float, steps: int, elapsed_s: float = 0.0
+    ) -> np.ndarray:
         """(6,) float32 robot state (see the module docstring)."""
+        budget = self.time_budget_s
+        progress = steps / self.max_steps if budget is None else min(elapsed_s / budget, 1.0)
         return np.array(
             [pose.x / self._half[0], pose.y / self._half[1], np.cos(pose.yaw), np.sin(pose.yaw),
-             discovered, steps / self.max_steps],
+             discovered, progress],
             dtype=np.float32,
         )  # fmt: skip
 
@@ -106,7 +137,12 @@ class Observer:
             out[name][:] = fractions.ravel()
         out["frontier"][:] = nav.frontier_goal_mask()
         out["valid"][:] = nav.goal_mask()
-        out["cost"][:] = nav.goal_cost()
+        if self.reach_m is None:
+            out["cost"][:] = nav.goal_cost()
+        else:  # unclipped (a valid goal's path is shorter than reach_m)
+            out["cost"][:] = np.where(
+                nav.goal_mask(), nav.goal_path_length() / nav.cost_range_m, 1.0
+            )
         x, y = self._centres
         out["distance"][:] = np.hypot(x - pose.x, y - pose.y) / self._diagonal
         out["robot"][:] = 0.0

@@ -34,6 +34,8 @@ AGENT_KEYS: dict[str, str] = {
     "step_path_length_m": "the length of the path the robot planned and drove on its map",
     "path_length_m": "the robot's odometry: the path lengths it drove, summed",
     "path_penalty": "the configured cost per metre times the path the robot drove",
+    "elapsed_s": "the robot's clock: its odometry and its scan count under the effort model",
+    "remaining_s": "the time task's budget minus the robot's clock",
     "estimated_pose": "the pose the robot maps with (its localisation, noise included)",
     "end_reason": "the step limit, the discovered target or no valid goal: all on its own map",
     "goal_grid_shape": "the (nx, ny) goal grid the robot plans on (its own map's extent)",

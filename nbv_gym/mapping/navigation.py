@@ -21,7 +21,9 @@
   cells) belongs to the cell up and right of it; path lengths between goal centres are then exact
   8-connected distances. A goal is valid iff its nav cell is eroded free and reachable, its centre is
   at least ``border_margin_m`` from the window border, and it is not the robot's own G cell;
-  cost = min(path length / ``cost_range_m``, 1) (1 for invalid goals). A *frontier goal* is a valid
+  cost = min(path length / ``cost_range_m``, 1) (1 for invalid goals). A reach limit
+  (:meth:`NavigationLayer.limit_reach`, the time task's remaining time) makes goals farther
+  along the path invalid too. A *frontier goal* is a valid
   goal whose nav cell is a frontier cell or touches one (8-neighbourhood): every frontier cell
   touches the nav cell of some goal, so frontiers and frontier goals vanish together unless the
   goals next to a frontier are invalid.
@@ -132,6 +134,7 @@ class NavigationLayer:
             self._robot_widths, self._unknown_widths, self._occupied_widths))  # fmt: skip
         self.distance = np.full(shape, np.inf)
         self.robot_xy = np.zeros(2)
+        self.reach_m = math.inf
         self._goals: _Goals | None = None
 
     @classmethod
@@ -209,6 +212,12 @@ class NavigationLayer:
         self.distance = path_lengths(self._passable(start), start, self.grid.res)
         self._goals = None
 
+    def limit_reach(self, reach_m: float) -> None:
+        """Make goals whose path is longer than ``reach_m`` metres invalid (inf: no limit)."""
+        if reach_m != self.reach_m:
+            self.reach_m = float(reach_m)
+            self._goals = None
+
     def clear(self) -> None:
         """Forget the map: nothing known, the robot at the origin, path lengths from there.
         (With nothing known, nothing is free, eroded free or a frontier: :meth:`reproject`'s
@@ -258,9 +267,11 @@ class NavigationLayer:
         (read-only; computed once per plan, like the other goal read-outs)."""
         return self._goal_arrays().path_length
 
-    def goal_mask(self) -> np.ndarray:
-        """(n_goals,) bool: valid goals (read-only)."""
-        return self._goal_arrays().mask
+    def goal_mask(self, limited: bool = True) -> np.ndarray:
+        """(n_goals,) bool: valid goals (read-only); ``limited=False``: those that would be
+        valid without the reach limit."""
+        goals = self._goal_arrays()
+        return goals.mask if limited else goals.reachable
 
     def goal_cost(self) -> np.ndarray:
         """(n_goals,) float64 min(path length / search range, 1); 1 for invalid goals
@@ -282,14 +293,15 @@ class NavigationLayer:
         cells = self._goal_cells
         path_length = self.distance.reshape(-1).take(cells)
         path_length[~self.eroded_free.reshape(-1).take(cells)] = np.inf
-        mask = np.isfinite(path_length) & self._goal_inner
+        reachable = np.isfinite(path_length) & self._goal_inner
         if self.robot_goal >= 0:
-            mask[self.robot_goal] = False
+            reachable[self.robot_goal] = False
+        mask = reachable & (path_length <= self.reach_m) if self.reach_m < math.inf else reachable
         cost = np.where(mask, np.minimum(path_length / self.cost_range_m, 1.0), 1.0)
         frontier = self._frontier_near.reshape(-1).take(cells) & mask
-        for array in (path_length, mask, cost, frontier):
+        for array in (path_length, reachable, mask, cost, frontier):
             array.flags.writeable = False
-        return _Goals(path_length, mask, cost, frontier)
+        return _Goals(path_length, reachable, mask, cost, frontier)
 
 
 @dataclass(frozen=True)
@@ -297,6 +309,7 @@ class _Goals:
     """The (n_goals,) read-outs of one projection and plan (see the NavigationLayer methods)."""
 
     path_length: np.ndarray
+    reachable: np.ndarray
     mask: np.ndarray
     cost: np.ndarray
     frontier: np.ndarray

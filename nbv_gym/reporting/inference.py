@@ -140,7 +140,7 @@ def holm(p_values: FloatArray) -> FloatArray:
 
 
 def probability_of_improvement(a: FloatArray, b: FloatArray, tasks) -> float:
-    """``P(A > B)``: for each task, the probability that a run of A (values ``a``) beats a run of
+    """``P(A > B)``: for each task, the probability that a run of A (values ``a``) scores higher than a run of
     B (``b``), ties ½, i.e. ``U / (n_A n_B)`` of the Mann–Whitney test; the mean over tasks.
     ``a``, ``b`` (n,), ``tasks`` (n,) the task of each pair of runs; NaN values are dropped."""
     from scipy.stats import mannwhitneyu

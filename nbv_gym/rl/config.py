@@ -12,7 +12,15 @@ from pathlib import Path
 from typing import Any, Literal
 
 from nbv_gym.core.config import check, from_dict, read_toml
-from nbv_gym.core.protocol import BUDGET_SCANS, TASKS, check_noise_level
+from nbv_gym.core.protocol import (
+    BUDGET_SCANS,
+    SCAN_TIME_S,
+    SPEED_MPS,
+    TASKS,
+    TIME_BUDGET_S,
+    EffortModel,
+    check_noise_level,
+)
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
 
@@ -73,10 +81,14 @@ class TrainConfig:
       every ``episodes_per_world`` resets, 4 by default: a switch to a world with trees costs
       ~1.8 s CPU, and 4 cut budget training's CPU per step from 83 to 52 ms); evaluation cycles over ``eval_worlds`` with
       ``eval_episodes`` episodes (default: one per world).
-    - ``task``: ``"budget"`` (``max_steps`` scans, no termination: the agent cannot profit from
-      delaying discovery) or ``"explore"`` (terminate at 70 % discovered); :mod:`nbv_gym.core.protocol`.
+    - ``task``: ``"budget"`` (``max_steps`` scans, no termination, travel free: the agent cannot
+      profit from delaying discovery), ``"time"`` (``time_budget_s`` seconds of robot time,
+      travel and scans charged) or ``"explore"`` (terminate at 70 % discovered);
+      :mod:`nbv_gym.core.protocol`.
     - ``noise``, ``max_steps``: the environment's localisation noise level and episode length
-      (the budget of the budget task).
+      (the budget of the budget task; the time task caps scans itself).
+    - ``time_budget_s``, ``speed_mps``, ``scan_time_s``: the time task's budget and the effort
+      model (:class:`~nbv_gym.core.protocol.EffortModel`).
     - ``observation_layers``: optional layers (e.g. ``gain_nobs``) the agent observes besides the
       base layers; they are stored in the model and checked when it is loaded as a policy.
     - ``reward_scale``: the learner sees ``reward_scale · ΔQ`` (ΔQ is ~1e-3 per step, too small
@@ -107,6 +119,9 @@ class TrainConfig:
     task: str = "budget"
     noise: int = 1
     max_steps: int = BUDGET_SCANS
+    time_budget_s: float = TIME_BUDGET_S
+    speed_mps: float = SPEED_MPS
+    scan_time_s: float = SCAN_TIME_S
     observation_layers: tuple[str, ...] = ()
     reward_scale: float = 100.0
     network: Literal["goal-map", "dense"] = "goal-map"
@@ -149,6 +164,8 @@ class TrainConfig:
         check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
         check_noise_level(self.noise)
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
+        check(self.time_budget_s > 0, "time_budget_s", f"must be > 0, got {self.time_budget_s}")
+        EffortModel(self.speed_mps, self.scan_time_s)  # checks both
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
         check(
             not unknown,
@@ -168,6 +185,12 @@ class TrainConfig:
             f'expected "", "local" or a scheduler address such as tcp://host:8786, got '
             f"{self.scheduler!r}",
         )
+
+    def effort(self) -> dict[str, float]:
+        """The effort keywords of the environment: the effort model, and the time task's
+        budget."""
+        effort = {"speed_mps": self.speed_mps, "scan_time_s": self.scan_time_s}
+        return {**effort, "time_budget_s": self.time_budget_s} if self.task == "time" else effort
 
     @property
     def n_eval_episodes(self) -> int:

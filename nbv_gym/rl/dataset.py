@@ -20,6 +20,7 @@ import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,11 +48,14 @@ def record_dataset(
     dataset_id: str | None = None,
     progress: Callable[[str], None] | None = None,
     task: str = "explore",
+    effort: dict[str, Any] | None = None,
 ):
     """Run ``episodes`` episodes of ``policy`` on ``world`` (reset seeds ``seed``, ``seed + 1``,
     …) under ``task`` and write them as a Minari dataset under the folder ``out``; the
-    ``MinariDataset``. ``max_steps`` is the truncation of the explore task, or the budget in
-    scans of the budget task."""
+    ``MinariDataset``. ``max_steps`` is the truncation of the explore task, the budget in
+    scans of the budget task, or the scan cap of the time task; ``effort``: the time task's
+    ``time_budget_s`` and the effort model's ``speed_mps`` and ``scan_time_s`` (keywords of
+    the environment)."""
     if episodes < 1:
         raise RecordError(f"--episodes must be ≥ 1, got {episodes}")
     dataset_id = check_path_of_names(dataset_id or default_id(world, policy), "--dataset-id", 3)
@@ -66,6 +70,7 @@ def record_dataset(
     env = gymnasium.make(
         TASK_IDS[task], world=world, noise=noise, max_steps=max_steps,
         max_episode_steps=max_steps, observation_layers=tuple(required_layers(agent)),
+        **(effort or {}),
     )  # fmt: skip
     buffers = []
     for k in range(episodes):

@@ -30,7 +30,10 @@ class WorldCycleEnv(gymnasium.Env):
     (``"snap"`` for learners that do not read ``action_masks()``). One environment serves every
     world: switching worlds swaps the scene and the ground truth and keeps the simulator's
     arrays. ``info["world"]`` names the episode's world; ``world_pool_size`` and
-    ``episodes_per_world`` are the distribution's options (:class:`~nbv_gym.env.EnvConfig`).
+    ``episodes_per_world`` are the distribution's options (:class:`~nbv_gym.env.EnvConfig`);
+    ``effort`` holds the time task's ``time_budget_s`` and the effort model's ``speed_mps`` and
+    ``scan_time_s`` (keywords of :class:`~nbv_gym.env.ExploreEnv`; ``max_steps`` None: the time
+    task's scan cap).
     """
 
     metadata = {"render_modes": []}  # noqa: RUF012 (gymnasium.Env declares it an instance attribute)
@@ -39,13 +42,14 @@ class WorldCycleEnv(gymnasium.Env):
         self,
         worlds: tuple[str, ...] | list[str],
         noise: int = 1,
-        max_steps: int = EXPLORE_MAX_STEPS,
+        max_steps: int | None = EXPLORE_MAX_STEPS,
         observation_layers: tuple[str, ...] | list[str] = (),
         reward_scale: float = 1.0,
         invalid_action: str = "raise",
         task: str = "explore",
         world_pool_size: int = POOL_SIZE,
         episodes_per_world: int = 1,
+        effort: dict[str, float] | None = None,
     ):
         self.worlds = tuple(worlds)
         self.reward_scale = reward_scale
@@ -58,6 +62,9 @@ class WorldCycleEnv(gymnasium.Env):
             invalid_action=invalid_action,
             world_pool_size=world_pool_size,
             episodes_per_world=episodes_per_world,
+            time_budget_s=(effort or {}).get("time_budget_s"),
+            speed_mps=(effort or {}).get("speed_mps"),
+            scan_time_s=(effort or {}).get("scan_time_s"),
         )
         self._world, self._episodes = self.worlds[0], 0
         self.action_space = self.env.action_space

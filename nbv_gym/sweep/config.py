@@ -28,6 +28,7 @@ from nbv_gym.core.protocol import (
     BUDGET_SCANS,
     EXPLORE_MAX_STEPS,
     NOISE_LEVELS,
+    TIME_BUDGET_S,
     check_noise_level,
     check_task,
     task_episode,
@@ -41,7 +42,12 @@ from nbv_gym.policies import POLICIES
 MAX_RUNS = 100_000
 MAX_STEPS = 10_000
 #: Keys of ``[env]`` the sweep sets itself, as dotted paths.
-_RESERVED_ENV_KEYS = ("simulator.world", "simulator.noise", "simulator.episode.max_steps")
+_RESERVED_ENV_KEYS = (
+    "simulator.world",
+    "simulator.noise",
+    "simulator.episode.max_steps",
+    "simulator.episode.time_budget_s",
+)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -53,8 +59,10 @@ class SweepConfig:
     trained agent (anything :func:`nbv_gym.policies.load_policy` takes); ``noise``:
     localisation-noise levels (0, 1, 2); ``repeats``: runs per combination; ``seed``: base seed
     of every run seed; ``max_steps``: the episode truncation of the explore task; ``task``:
-    ``"explore"`` (the paper's protocol) or ``"budget"`` (``budget_scans`` scans, no
-    termination; :mod:`nbv_gym.core.protocol`); ``retries``: how many times a failed run is retried
+    ``"explore"`` (the paper's protocol), ``"budget"`` (``budget_scans`` scans, no
+    termination, travel free) or ``"time"`` (``time_budget_s`` seconds of robot time, travel
+    and scans charged; the effort model's speed and scan time are ``env.simulator.episode``'s
+    ``speed_mps`` and ``scan_time_s``; :mod:`nbv_gym.core.protocol`); ``retries``: how many times a failed run is retried
     within one invocation; ``run_timeout_s``: wall-clock limit of one run
     (world building included), after which its worker is stopped and the run recorded as failed
     ("timed out after N s"); ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for
@@ -71,6 +79,7 @@ class SweepConfig:
     retries: int = 2
     task: str = "explore"
     budget_scans: int = BUDGET_SCANS
+    time_budget_s: float = TIME_BUDGET_S
     run_timeout_s: float = 1800.0
     env: dict[str, Any] = field(default_factory=dict)
 
@@ -103,6 +112,11 @@ class SweepConfig:
             value = getattr(self, key)
             check(1 <= value <= MAX_STEPS, key, f"must be from 1 to {MAX_STEPS}, got {value}")
         check(self.retries >= 0, "retries", f"must be ≥ 0, got {self.retries}")
+        check(
+            0 < self.time_budget_s < math.inf,
+            "time_budget_s",
+            f"must be a number of seconds > 0, got {self.time_budget_s}",
+        )
         check_task(self.task)
         check(
             0 < self.run_timeout_s < math.inf,
@@ -125,7 +139,9 @@ class SweepConfig:
         episode_keys = {"max_steps": self.max_steps}
         run = {"simulator": {"world": world, "noise": noise, "episode": episode_keys}}
         config = from_dict(EnvConfig, merge(self.env, run), "env")
-        episode = task_episode(self.task, config.simulator.episode, self.budget_scans)
+        episode = task_episode(
+            self.task, config.simulator.episode, self.budget_scans, self.time_budget_s
+        )
         return replace(config, simulator=replace(config.simulator, episode=episode))
 
     def runs(self) -> list[RunSpec]:

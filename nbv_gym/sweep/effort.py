@@ -1,5 +1,6 @@
-"""Comparisons at equal effort (docs/protocol.md#tasks, the budget protocol) and the calibration of the NBV gain
-prediction, for the sweep report.
+"""Comparisons at equal scans with travel free (docs/protocol.md#tasks, the budget protocol),
+beside Q against path length, and the calibration of the NBV gain prediction, for the sweep
+report.
 
 The paper compares policies at equal discovered fraction, which rewards scanning more per
 discovered area. Here Q and the discovered fraction are drawn against the number of scans and
@@ -141,7 +142,7 @@ def calibration_table(steps):
 
 
 def effort_section(ok, steps, policies, out: Path) -> str:
-    """The report's budget-fair section: figures against scans and path length, Q after fixed
+    """The report's equal-scans section: figures against scans and path length, Q after fixed
     numbers of scans, and the gain calibration table."""
     from nbv_gym.reporting.formatting import markdown_table, ranked_apart
 
@@ -154,7 +155,7 @@ def effort_section(ok, steps, policies, out: Path) -> str:
         [r["policy"], r["asset"], *(_cell(r, b) for b in SCAN_BUDGETS)] for _, r in table.iterrows()
     ]
     lines = [
-        "## Comparison at equal effort (budget protocol)",
+        "## Comparison at equal scans, travel free (budget protocol)",
         "",
         "The paper's Fig. 2 compares policies at equal discovered fraction, which rewards "
         "scanning more per discovered area. Here Q and the discovered fraction are drawn against "

@@ -39,6 +39,7 @@ END_CODES = {
     "target": "discovered ",  # the discovered fraction reached the target: terminated
     "max_steps": "reached max_steps",  # truncated at the step limit
     "no_goal": "no valid goal",  # truncated: no goal reachable
+    "time": "time budget spent",  # truncated: the time task's budget buys no further goal
 }
 RUNS = (
     *IDENTITY,
@@ -52,6 +53,7 @@ RUNS = (
     Column("q", "1", "final map quality Q (fixed bounds; the reward's quantity)"),
     Column("q_paper", "1", "final Q_paper (paper eq. 3, min–max normalised)"),
     Column("path_length_m", "m", "length of the robot's path"),
+    Column("elapsed_s", "s", "the robot's time: path / speed + scans × scan time (effort model)"),
     Column("wall_time_s", "s", "wall time of the episode (reset to end)"),
     Column("decision_time_s", "s", "mean time of the policy's act() per step (its decision)"),
     Column("total_time_s", "s", "wall time of the run, world loading included"),
@@ -71,6 +73,7 @@ _STEP_DOCS = {
     "q_observed": ("1", "Q over the observed cuboids only"),
     "reward": ("1", "ΔQ of this step minus the path penalty (0 by default)"),
     "path_length_m": ("m", "path length so far"),
+    "elapsed_s": ("s", "the robot's time so far: path / speed + scans × scan time"),
     "predicted_gain": ("—", "the nbv-* policy's predicted gain of the goal; NaN otherwise"),
     "realised_gain": ("—", "the same statistic's realised gain; NaN otherwise"),
     "time_s": ("s", "wall time since the reset"),

@@ -131,7 +131,7 @@ def pairwise_text(pairs, label: str) -> str:
         (note + "\n\n" if note else "")
         + f"Runs paired by world, noise level and repeat (same seed). Difference of {label}, "
         "share of pairs where the first policy is higher, probability of improvement P(A > B) "
-        "(per world and noise level, the chance that a run of A beats a run of B, ties ½; "
+        "(per world and noise level, the chance that a run of A scores higher than a run of B, ties ½; "
         "averaged; 95 % interval: runs of A and B resampled within each world and noise level), "
         "two-sided Wilcoxon signed-rank p, and that p Holm-adjusted over all the "
         "pairs of this table (reject at α = 0.05 where the Holm p < 0.05).\n\n"

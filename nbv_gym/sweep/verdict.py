@@ -33,7 +33,7 @@ Claims and rules (α = 0.05):
   the hardest type's advantage exceeds the easiest's and every type's advantage is positive;
   partly if so except that an easier type's advantage is not positive; inconclusive if n is too
   small; not otherwise (negative advantages that grow are *not*).
-- **Budget protocol** (not a claim of the paper: its claim at equal effort): each NBV policy
+- **Budget protocol** (not a claim of the paper: its claim at equal scans, travel free): each NBV policy
   against each baseline on Q after 5 and 12 scans, over every noise level, paired and tested
   like Fig. 2 (its own Holm family), with the same rules.
 
@@ -98,7 +98,7 @@ COMPARISONS = {
     },
     "budget": {
         "claim": "Budget: {policy} above {baseline}",
-        "paper": "(not in the paper) the Fig. 2 claim at equal effort: Q after 5 and 12 scans",
+        "paper": "(not in the paper) the Fig. 2 claim at equal scans, travel free: Q after 5 and 12 scans",
         "quantity": "ΔQ",
         "points": SCANS,
         "point": "{} scans",

@@ -178,6 +178,7 @@ def _run(task: RunTask, on_step) -> dict[str, Any]:
         "q": final["q"],
         "q_paper": final["q_paper"],
         "path_length_m": final["path_length_m"],
+        "elapsed_s": final["elapsed_s"],
         "wall_time_s": result.wall_time_s,
         "decision_time_s": clock.mean_s,
         "attempts": task.attempt,

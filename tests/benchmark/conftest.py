@@ -15,11 +15,13 @@ TINY_WORLD = WorldSpec(
 
 @pytest.fixture(scope="session")
 def tiny_suite() -> Suite:
-    """Budget task of 2 scans on pp1-cuboids and on a generated world, explore task of at most 3
-    steps (too few to reach 70 %) on pp1-cuboids; noise 0, 2 repeats (12 runs)."""
+    """Time task of 40 s (2–3 scans) on a generated world, budget task of 2 scans on
+    pp1-cuboids and on the generated world, explore task of at most 3 steps (too few to reach
+    70 %) on pp1-cuboids; noise 0, 2 repeats (16 runs)."""
     return Suite(
         "tiny",
         (
+            Part("time-test", "time", (TINY_WORLD,), noise=(0,), repeats=2, time_budget_s=40.0),
             Part("benchmark", "budget", ("pp1-cuboids",), noise=(0,), repeats=2, budget_scans=2),
             Part("test", "budget", (TINY_WORLD,), noise=(0,), repeats=2, budget_scans=2),
             Part("explore", "explore", ("pp1-cuboids",), noise=(0,), repeats=2, max_steps=3),

@@ -15,13 +15,25 @@ from nbv_gym.benchmark.leaderboard import (
     build_leaderboard,
     gather,
     improvement,
+    pareto_dominated,
     ranked,
 )
+from nbv_gym.benchmark.references import references_pending
 from nbv_gym.benchmark.scorecard import build_scorecard, dumps_strict
 
 
-def card(suite, name: str, level: float, oracle: bool = False, version: int | None = None):
-    """A scorecard of ``suite`` whose runs score ``level`` + a small spread per repeat."""
+def card(
+    suite,
+    name: str,
+    level: float,
+    oracle: bool = False,
+    version: int | None = None,
+    path_m: float = 10.0,
+):
+    """A scorecard of ``suite`` whose runs score ``level`` + a small spread per repeat (Q, and
+    the area under Q(t) on time parts), driving ``path_m`` metres."""
+    from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S
+
     runs = []
     for part in suite.parts:
         for world in part.world_names:
@@ -43,7 +55,11 @@ def card(suite, name: str, level: float, oracle: bool = False, version: int | No
                             q_paper=q,
                             q_paper_70=q,
                             discovered=0.5,
-                            path_length_m=10.0,
+                            path_length_m=path_m,
+                            elapsed_s=path_m + 20.0,
+                            q_time_auc=q if part.task == "time" else None,
+                            q_time=[q] * len(TIME_GRID_S),
+                            q_path=[q] * len(PATH_GRID_M),
                             decision_time_s=0.001,
                             wall_time_s=0.1,
                         )
@@ -122,7 +138,7 @@ def test_scorecards_of_different_suites_are_refused_naming_them(tiny_suite, tmp_
 def test_scorecards_of_different_protocol_versions_are_refused(tiny_suite, tmp_path):
     a = write(tmp_path, card(tiny_suite, "a", 0.3))
     b = write(tmp_path, card(tiny_suite, "b", 0.3, version=99))
-    with pytest.raises(LeaderboardError, match=r"protocol version 1; .*protocol version 99"):
+    with pytest.raises(LeaderboardError, match=r"protocol version 2; .*protocol version 99"):
         gather([a, b], references=False)
 
 
@@ -144,10 +160,52 @@ def test_the_cli_refuses_mixed_suites_in_one_line(tiny_suite, tmp_path):
 
 def test_entry_scores_are_nan_when_a_split_is_missing(tiny_suite):
     scorecard = card(tiny_suite, "a", 0.3)
-    del scorecard["aggregates"]["test"]
+    del scorecard["aggregates"]["time-test"]
     assert Entry("a", scorecard, "x").score() != Entry("a", scorecard, "x").score()  # NaN
 
 
+def test_the_board_ranks_by_the_time_task_marks_the_pareto_front_and_draws_q_t(
+    tiny_suite, tmp_path
+):
+    paths = [
+        write(tmp_path, card(tiny_suite, "near", 0.3, path_m=10.0)),
+        write(tmp_path, card(tiny_suite, "far", 0.5, path_m=300.0)),
+        write(tmp_path, card(tiny_suite, "worse", 0.2, path_m=50.0)),  # near: more Q, less path
+    ]
+    entries = gather(paths, references=False)
+    assert [e.metric() for e in entries] == ["q_time_auc"] * 3
+    assert pareto_dominated(entries) == {"worse": "near"}
+    markdown, _ = build_leaderboard(paths, False, tmp_path / "board")
+    text = markdown.read_text()
+    assert (
+        text.index("| 1 | **`far`**")
+        < text.index("| 2 | **`near`**")
+        < text.index("| 3 | **`worse`**")
+    )
+    assert "dominated by `near`" in text and text.count("| front |") == 2
+    assert "equal time, test: IQM area under Q(t)" in text and "equal scans (travel free)" in text
+    assert (tmp_path / "board" / "q-time.png").stat().st_size > 0
+
+
+def test_stale_references_are_left_out_and_named_pending(tiny_suite, tmp_path, monkeypatch):
+    import nbv_gym.benchmark.references as references
+
+    old = card(tiny_suite, "old-reference", 0.9, version=1)
+    monkeypatch.setattr(references, "load_references", lambda: [old])
+    with pytest.raises(LeaderboardError, match=r"References for protocol version 2 .* pending"):
+        gather([], references=True)
+    mine = write(tmp_path, card(tiny_suite, "mine", 0.3))
+    markdown, _ = build_leaderboard([mine], True, tmp_path / "board")
+    text = markdown.read_text()
+    assert "are pending" in text and "old-reference" in text  # named, not ranked
+    assert "| 1 | **`mine`**" in text and "| 2 |" not in text
+
+
+@pytest.mark.xfail(
+    references_pending(),
+    reason="the shipped references predate this protocol version (pending regeneration)",
+    strict=True,
+)
 def test_leaderboard_of_the_shipped_references_lists_every_one(tmp_path):
     from nbv_gym.benchmark.references import reference_path, shipped_policies
 

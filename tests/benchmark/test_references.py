@@ -18,6 +18,7 @@ from nbv_gym.benchmark.references import (
     REFERENCE_SUITE,
     load_references,
     reference_path,
+    references_pending,
     shipped_policies,
 )
 from nbv_gym.benchmark.scorecard import (
@@ -45,6 +46,14 @@ def close(a, b, rel: float = 1e-9) -> bool:
 
 REGENERATE = "regenerate the references: python -m nbv_gym.benchmark.references"
 SHIPPED = shipped_policies()
+#: While the shipped references predate the protocol version (a new version is scored once,
+#: at the end of the change that brought it), the tests that hold them to the current suite,
+#: aggregates and runs are expected to fail — strictly: once regenerated, they must pass.
+STALE = pytest.mark.xfail(
+    references_pending(),
+    reason=f"the references of protocol version {PROTOCOL_VERSION} are pending; {REGENERATE}",
+    strict=True,
+)
 
 
 def stored(name: str) -> dict:
@@ -69,6 +78,7 @@ def test_every_shipped_policy_has_a_reference_unless_pending_and_nothing_else_do
 
 
 @pytest.mark.parametrize("name", SHIPPED)
+@STALE
 def test_reference_belongs_to_the_current_suite_protocol_and_policy_code(name):
     card = stored(name)
     assert card["suite"]["name"] == REFERENCE_SUITE.name
@@ -84,6 +94,7 @@ def test_reference_belongs_to_the_current_suite_protocol_and_policy_code(name):
 
 
 @pytest.mark.parametrize("name", SHIPPED)
+@STALE
 def test_reference_validates_and_its_aggregates_follow_from_its_runs(name):
     import jsonschema
 
@@ -127,7 +138,9 @@ def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, 
         if (r["split"], r["world"], r["noise"], r["repeat"]) == (split, world, noise, repeat)
     )
     timings = ("decision_time_s", "wall_time_s")
-    now, then = ({k: v for k, v in r.items() if k not in timings} for r in (now, then))
+    # the figures the stored run holds (a newer protocol version adds figures, never moves one)
+    then = {k: v for k, v in then.items() if k not in timings}
+    now = {k: now[k] for k in then}
     assert close(json.loads(dumps_strict(now)), then), (
         f"{name}'s run {spec.key} moved; {REGENERATE}"
     )

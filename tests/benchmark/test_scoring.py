@@ -20,6 +20,7 @@ from nbv_gym.benchmark.scorecard import (
     summary,
 )
 from nbv_gym.benchmark.scoring import ScoreError, score_policy
+from nbv_gym.benchmark.suites import PROTOCOL_VERSION
 
 
 def strict_json(text: str):
@@ -66,9 +67,9 @@ def test_scorecard_validates_against_the_shipped_schema(scored):
     written = strict_json((out / "scorecard.json").read_text())
     validate(written)
     assert written == strict_json(dumps_strict(card))
-    assert len(written["runs"]) == 6
+    assert len(written["runs"]) == 8
     assert written["policy"]["name"] == "closest-frontier" and written["policy"]["oracle"] is False
-    assert written["suite"]["name"] == "tiny" and written["protocol_version"] == 1
+    assert written["suite"]["name"] == "tiny" and written["protocol_version"] == PROTOCOL_VERSION
 
 
 def test_schema_rejects_a_scorecard_that_lost_a_field(scored):
@@ -108,9 +109,57 @@ def test_aggregates_summarise_the_runs(scored):
     assert "scorecard: `closest-frontier`" in (scored[0] / "scorecard.md").read_text().lower()
 
 
+def test_time_runs_carry_q_over_effort_computed_from_their_steps(scored):
+    """Each time-task run's area under Q(t), elapsed time and Q on the grids, recomputed here
+    from the sweep's steps table by hand; the effort aggregates are their means."""
+    import pandas as pd
+
+    from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S
+
+    out, card = scored
+    steps = pd.read_csv(out / "parts" / "time-test" / "steps.csv")
+    runs = [r for r in card["runs"] if r["split"] == "time-test"]
+    budget = 40.0
+    for run in runs:
+        mine = steps[steps["repeat"] == run["repeat"]].sort_values("step")
+        t, q, path = (mine[c].to_numpy() for c in ("elapsed_s", "q", "path_length_m"))
+        assert np.allclose(t, path / 1.0 + mine["step"].to_numpy() * 10.0)  # the effort model
+        held = sum(q[i] * (min(t[i + 1], budget) - t[i]) for i in range(len(t) - 1))
+        held += q[-1] * (budget - t[-1])
+        assert run["q_time_auc"] == pytest.approx(held / budget, rel=1e-12)
+        assert run["elapsed_s"] == pytest.approx(t[-1]) and t[-1] <= budget
+        assert run["end_reason"].startswith("time budget spent")
+        for grid, values, effort in (
+            (TIME_GRID_S, run["q_time"], t),
+            (PATH_GRID_M, run["q_path"], path),
+        ):
+            for x, value in zip(grid, values, strict=True):
+                assert value == pytest.approx(q[effort <= x][-1], abs=1e-7)
+    effort = card["aggregates"]["time-test"]["effort"]
+    assert card["aggregates"]["time-test"]["metric"] == "q_time_auc"
+    assert effort["q_at_budget"]["mean"] == pytest.approx(np.mean([r["q"] for r in runs]))
+    index = PATH_GRID_M.index(25.0)
+    assert effort["q_at_path"]["25"]["mean"] == pytest.approx(
+        np.mean([r["q_path"][index] for r in runs])
+    )
+    assert effort["q_time"]["mean"] == pytest.approx(np.mean([r["q_time"] for r in runs], axis=0))
+    assert all(r["q_time_auc"] is None for r in card["runs"] if r["task"] != "time")
+    assert card["aggregates"]["test"]["effort"]["q_at_budget"] is None
+    assert "Q over effort" in (out / "scorecard.md").read_text()
+
+
 def test_a_second_scoring_gives_the_same_scorecard_apart_from_timings(scored, tiny_suite, tmp_path):
     first = strict_json((scored[0] / "scorecard.json").read_text())
     again = score_policy("closest-frontier", tiny_suite, tmp_path, workers=1, progress=False)
+    assert without_timings(strict_json(dumps_strict(again))) == without_timings(first)
+
+
+def test_scoring_on_a_dask_cluster_gives_the_local_scorecard(scored, tiny_suite, tmp_path):
+    pytest.importorskip("distributed")
+    first = strict_json((scored[0] / "scorecard.json").read_text())
+    again = score_policy(
+        "closest-frontier", tiny_suite, tmp_path, workers=2, progress=False, scheduler="local"
+    )
     assert without_timings(strict_json(dumps_strict(again))) == without_timings(first)
 
 

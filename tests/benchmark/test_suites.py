@@ -9,6 +9,7 @@ import pytest
 from nbv_gym.benchmark.scoring import part_config, write_world_specs
 from nbv_gym.benchmark.suites import (
     BENCHMARK_WORLDS,
+    HEADLINE_SPLIT,
     QUICK,
     STANDARD,
     SUITES,
@@ -23,16 +24,21 @@ from nbv_gym.worlds.distribution import FIRST_SEED as POOL_SEED
 from nbv_gym.worlds.distribution import KINDS, POOL_SIZE, WorldDistribution
 
 
-def test_standard_suite_runs_the_budget_task_on_both_splits_and_the_paper_protocol():
+def test_standard_suite_runs_the_time_and_budget_tasks_on_both_splits_and_the_paper_protocol():
     parts = {part.split: part for part in STANDARD.parts}
-    assert list(parts) == ["benchmark", "test", "explore"]
+    assert list(parts) == ["time-test", "time-benchmark", "benchmark", "test", "explore"]
     assert sorted(parts["benchmark"].world_names) == benchmark_names()
+    assert parts["time-benchmark"].world_names == parts["benchmark"].world_names
+    assert parts["time-test"].world_names == parts["test"].world_names
     assert parts["explore"].world_names == BENCHMARK_WORLDS
     assert len(parts["test"].worlds) >= 12
-    assert [p.task for p in parts.values()] == ["budget", "budget", "explore"]
-    assert [p.metric for p in parts.values()] == ["q", "q", "q_paper_70"]
+    assert [p.task for p in parts.values()] == ["time", "time", "budget", "budget", "explore"]
+    assert [p.metric for p in parts.values()] == ["q_time_auc"] * 2 + ["q", "q", "q_paper_70"]
     assert all(p.noise == (0, 1, 2) and p.repeats >= 2 for p in parts.values())
-    assert parts["benchmark"].budget_scans == 12
+    assert parts["benchmark"].budget_scans == 12 and parts["time-test"].time_budget_s == 600
+    assert HEADLINE_SPLIT == "time-test"
+    episode = parts["time-test"].env_config().simulator.episode
+    assert (episode.time_budget_s, episode.discovered_target) == (600, None)
 
 
 def test_test_split_recipe_differs_from_the_benchmark_and_the_training_pools():

@@ -3,6 +3,7 @@ own task (read from the training config beside its model) when none is given."""
 
 from __future__ import annotations
 
+import csv
 import json
 import subprocess
 import sys
@@ -32,12 +33,20 @@ def test_an_sb3_model_reads_the_config_of_its_training_run(tmp_path):
 
 
 def test_options_the_task_does_not_read_are_refused():
-    with pytest.raises(ConfigError, match=r"task: expected one of explore, budget, got 'bugdet'"):
+    with pytest.raises(
+        ConfigError, match=r"task: expected one of explore, budget, time, got 'bugdet'"
+    ):
         task_of("closest-frontier", "bugdet", None, None)
     with pytest.raises(ConfigError, match=r"--max-steps truncates the explore task"):
         task_of("ppo-budget", None, None, 30)
     with pytest.raises(ConfigError, match=r"--budget-scans is the budget task's"):
         task_of("closest-frontier", None, 5, None)
+    with pytest.raises(ConfigError, match=r"--budget-scans is the budget task's"):
+        task_of("closest-frontier", "time", 5, None)
+    with pytest.raises(ConfigError, match=r"--max-steps .* give --time-budget-s instead"):
+        task_of("closest-frontier", "time", None, 30)
+    with pytest.raises(ConfigError, match=r"--time-budget-s is the time task's"):
+        task_of("closest-frontier", "budget", None, None, 300.0)
 
 
 @pytest.mark.parametrize("task", [[], ["--task", "budget"]], ids=["own-task", "--task budget"])
@@ -68,3 +77,23 @@ def test_run_help_shows_the_simulator_defaults_it_uses():
         SimulatorConfig().noise,
     )
     assert "the config's" not in command.get_help(typer.Context(command))
+
+
+def test_run_of_the_time_task_spends_its_budget_and_writes_the_robots_clock(tmp_path):
+    done = subprocess.run(
+        [sys.executable, "-m", "nbv_gym", "run", "--policy", "closest-frontier", "--world",
+         "pp1-cuboids", "--no-animation", "--out", str(tmp_path), "--json", "--task", "time",
+         "--time-budget-s", "90", "--speed-mps", "0.5", "--scan-time-s", "5"],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    summary = json.loads(done.stdout)
+    assert summary["task"] == "time" and summary["end_reason"].startswith("time budget spent")
+    episode = summary["config"]["simulator"]["episode"]
+    assert (episode["time_budget_s"], episode["speed_mps"], episode["scan_time_s"]) == (90, 0.5, 5)
+    with open(tmp_path / "steps.csv") as f:
+        rows = list(csv.DictReader(f))
+    for row in rows:
+        expected = float(row["path_length_m"]) / 0.5 + int(row["step"]) * 5.0
+        assert float(row["elapsed_s"]) == pytest.approx(expected, abs=1e-9)
+    assert 60 < float(rows[-1]["elapsed_s"]) <= 90  # spent: no goal fitted in what was left

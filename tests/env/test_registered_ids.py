@@ -10,7 +10,13 @@ import gymnasium
 import pytest
 
 import nbv_gym  # noqa: F401  (registers the environments)
-from nbv_gym.core.protocol import BUDGET_SCANS, EXPLORE_MAX_STEPS, TASK_IDS
+from nbv_gym.core.protocol import (
+    BUDGET_SCANS,
+    EXPLORE_MAX_STEPS,
+    TASK_IDS,
+    TIME_BUDGET_S,
+    EffortModel,
+)
 
 WORLD = "pp1-cuboids"
 #: Every id of the package, read from Gymnasium's registry rather than from our own constants.
@@ -29,7 +35,11 @@ def test_max_episode_steps_is_the_envs_own_limit(env_id):
     env = gymnasium.make(env_id, world=WORLD)
     own = env.unwrapped.config.simulator.episode.max_steps
     assert env.spec.max_episode_steps == own
-    expected = {TASK_IDS["explore"]: EXPLORE_MAX_STEPS, TASK_IDS["budget"]: BUDGET_SCANS}
+    expected = {
+        TASK_IDS["explore"]: EXPLORE_MAX_STEPS,
+        TASK_IDS["budget"]: BUDGET_SCANS,
+        TASK_IDS["time"]: EffortModel().scan_cap(TIME_BUDGET_S),
+    }
     assert own == expected[env_id]
     env.close()
 

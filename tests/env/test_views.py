@@ -13,11 +13,12 @@ from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.env.views import AGENT_KEYS, PRIVILEGED_KEYS, PrivilegedInfoError, agent_view
 
 WORLD = "pp1-cuboids"
-# Every way the env's info can differ: both ids, with and without the optional layers,
+# Every way the env's info can differ: the ids, with and without the optional layers,
 # snapping, and an episode that terminates (a tiny discovered target) or is truncated.
 SETTINGS = {
     "explore": ("nbv_gym/Explore-v0", {}),
     "budget-snap": ("nbv_gym/ExploreBudget-v0", {"invalid_action": "snap"}),
+    "time": ("nbv_gym/ExploreTime-v0", {}),
     "explore-layers": ("nbv_gym/Explore-v0", {"observation_layers": tuple(OPTIONAL_LAYERS)}),
     "terminates": (
         "nbv_gym/Explore-v0",

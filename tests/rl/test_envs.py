@@ -26,3 +26,18 @@ def test_distribution_draws_and_snapping_reaches_the_learner():
     assert len(drawn) > 1 and all(name.startswith("random-cuboids-") for name in drawn)
     *_, info = env.step(np.int64(BORDER_GOAL))
     assert info["snapped"] and info["goal"] != BORDER_GOAL
+
+
+def test_the_time_task_trains_under_its_budget_and_effort_model():
+    from nbv_gym.core.protocol import EffortModel
+    from nbv_gym.rl.config import TrainConfig
+
+    config = TrainConfig(task="time", time_budget_s=120.0, speed_mps=0.5, scan_time_s=5.0)
+    assert config.effort() == {"speed_mps": 0.5, "scan_time_s": 5.0, "time_budget_s": 120.0}
+    assert "time_budget_s" not in TrainConfig().effort()  # the budget task has no time budget
+    env = WorldCycleEnv(("pp1-cuboids",), task="time", max_steps=None, effort=config.effort())
+    episode = env.env.config.simulator.episode
+    assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (120.0, 0.5, 5.0)
+    assert episode.max_steps == EffortModel(0.5, 5.0).scan_cap(120.0)
+    _, info = env.reset(seed=0)
+    assert info["remaining_s"] == 120.0

@@ -62,3 +62,15 @@ def test_a_budget_recording_runs_the_budget_without_termination(tmp_path):
         "random-frontier", "pp1-cuboids", tmp_path, episodes=1, max_steps=4, task="budget"
     )
     assert dataset.total_steps == 4 and dataset.env_spec.id == "nbv_gym/ExploreBudget-v0"
+
+
+def test_a_time_recording_runs_until_its_time_budget_is_spent(tmp_path):
+    from nbv_gym.core.protocol import EffortModel
+
+    dataset = record_dataset(
+        "closest-frontier", "pp1-cuboids", tmp_path, episodes=1, task="time",
+        max_steps=EffortModel().scan_cap(45.0), effort={"time_budget_s": 45.0},
+    )  # fmt: skip
+    assert dataset.env_spec.id == "nbv_gym/ExploreTime-v0"
+    (episode,) = dataset.iterate_episodes()
+    assert episode.truncations[-1] and 1 <= dataset.total_steps < 45 / 10  # ≥ 10 s a scan

@@ -80,7 +80,7 @@ def test_file_names_are_safe_for_any_policy_name():
         ('polices = ["closest-frontier"]', r"Unknown key polices"),
         ('repeats = "3"', r"repeats: expected int"),
         ("repeats = 0", r"repeats: must be ≥ 1"),
-        ("noise = [0, 3]", r"noise\[1\]: expected 0, 1 or 2"),
+        ("noise = [0, 3]", r"noise\[1\]: expected one of 0, 1, 2"),
         ('noise = "1"', r"noise: expected a list"),
         (
             'policies = ["closest-frontier", "closest-fronteer"]',

@@ -1,4 +1,4 @@
-"""Comparisons at equal effort and the gain calibration, on tables known by hand."""
+"""Comparisons at equal scans (travel free) and the gain calibration, on tables known by hand."""
 
 from __future__ import annotations
 

@@ -35,7 +35,7 @@ def test_a_sweep_fails_peeking_runs_and_marks_the_oracle_in_its_report(
     names = [row.split("|")[1].strip() for row in rows[1:]]  # after the header
     assert names.index("closest-frontier") < names.index("peeking:Oracle (oracle)")
     assert any(name.startswith("*oracles") for name in names)  # the rule between them
-    assert "peeking:Oracle (oracle)" in report.split("## Comparison at equal effort")[1]
+    assert "peeking:Oracle (oracle)" in report.split("## Comparison at equal scans, travel free")[1]
     # A run record of an older version (no "oracle" column) still counts as finished.
     (path,) = (out / "runs").glob("*closest-frontier*.json")
     record = json.loads(path.read_text())

@@ -1,4 +1,5 @@
-"""A sweep selects the task: the budget task runs ``budget_scans`` scans without termination."""
+"""A sweep selects the task: the budget task runs ``budget_scans`` scans without termination, the
+time task ``time_budget_s`` seconds of robot time."""
 
 from __future__ import annotations
 
@@ -25,11 +26,25 @@ def test_budget_task_runs_budget_scans_without_termination():
     assert config.results_fingerprint()["task"] == "budget"  # no resuming across tasks
 
 
+def test_time_task_runs_its_time_budget_with_the_configured_effort_model():
+    env = {"simulator": {"episode": {"speed_mps": 0.5, "scan_time_s": 4.0}}}
+    config = SweepConfig(**BASE, task="time", time_budget_s=300.0, env=env)
+    episode = config.env_config("pp1-cuboids", 1).simulator.episode
+    assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (300.0, 0.5, 4.0)
+    assert episode.discovered_target is None and episode.max_steps * 4.0 > 300.0  # cap never binds
+    assert config.results_fingerprint()["time_budget_s"] == 300.0  # no resuming across budgets
+    with pytest.raises(
+        ConfigError, match=r"env\.simulator\.episode\.time_budget_s: set by the sweep"
+    ):
+        SweepConfig(**BASE, task="time", env={"simulator": {"episode": {"time_budget_s": 9.0}}})
+
+
 @pytest.mark.parametrize(
     "values, match",
-    [({"task": "race"}, "task: expected one of explore, budget"),
-     ({"budget_scans": 0}, "budget_scans: must be from 1 to 10000")],
-    ids=["task", "budget_scans"],
+    [({"task": "race"}, "task: expected one of explore, budget, time"),
+     ({"budget_scans": 0}, "budget_scans: must be from 1 to 10000"),
+     ({"time_budget_s": 0.0}, "time_budget_s: must be a number of seconds > 0")],
+    ids=["task", "budget_scans", "time_budget_s"],
 )  # fmt: skip
 def test_bad_task_settings_are_refused(values, match):
     with pytest.raises(ConfigError, match=match):

@@ -1,0 +1,153 @@
+"""The time task, ``nbv_gym/ExploreTime-v0``: the robot's clock follows the effort model, goals
+that would overrun the remaining time are masked, the episode ends when the budget is spent, and
+the ``cost`` layer gives the true path cost of every valid goal, however far (checkers:
+``test_registered_ids.py``)."""
+
+from __future__ import annotations
+
+import gymnasium
+import numpy as np
+import pytest
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+import nbv_gym  # noqa: F401  (registers the environments)
+from nbv_gym.core.errors import ConfigError
+from nbv_gym.core.protocol import SCAN_TIME_S, SPEED_MPS, TIME_BUDGET_S, TIME_ID, EffortModel
+from nbv_gym.env import ExploreEnv
+from nbv_gym.mapping.navigation import NavigationConfig
+
+WORLD = "pp1-cuboids"
+#: Not the defaults, so that a formula that ignores a parameter fails.
+SPEED, SCAN, BUDGET = 0.8, 7.5, 400.0
+#: The range that scales the ``cost`` layer (the navigation's search range), metres.
+RANGE_M = NavigationConfig().cost_range_m
+
+
+def random_episode(seed: int = 3, **kwargs):
+    """(observation, info, env) after reset and after every step of a random masked episode on
+    the time task with :data:`SPEED`, :data:`SCAN` and :data:`BUDGET`."""
+    env = gymnasium.make(
+        TIME_ID, world=WORLD, time_budget_s=BUDGET, speed_mps=SPEED, scan_time_s=SCAN, **kwargs
+    )
+    rng = np.random.default_rng(seed)
+    observation, info = env.reset(seed=seed)
+    yield observation, info, (False, False), env.unwrapped
+    while True:
+        goal = int(rng.choice(np.flatnonzero(info["action_mask"])))
+        observation, _, terminated, truncated, info = env.step(goal)
+        yield observation, info, (terminated, truncated), env.unwrapped
+        if terminated or truncated:
+            return
+
+
+def goal_time_s(env: ExploreEnv) -> np.ndarray:
+    """(n_goals,) seconds to drive to each goal and scan there (inf if unreachable)."""
+    return env.sim.navigation.goal_path_length() / SPEED + SCAN
+
+
+@pytest.fixture(scope="module")
+def episode() -> list[dict]:
+    """Per reset and step: the observation, info, (terminated, truncated), and read from the
+    navigation layer: each goal's drive + scan time (s), the goals valid without the time
+    limit, the cells the path search may cross, the robot's nav cell and the goals' nav cells."""
+    steps = []
+    for obs, info, end, env in random_episode():
+        nav = env.sim.navigation
+        i, j = nav.grid.index([[*nav.robot_xy, nav.grid.origin[2]]])[0, :2]
+        steps.append({
+            "obs": obs, "info": info, "end": end, "cost_s": goal_time_s(env),
+            "reachable": nav.goal_mask(limited=False).copy(),
+            "passable": nav._passable((int(i), int(j))), "robot": (int(i), int(j)),
+            "goal_cells": nav._goal_cells, "space": env.observation_space,
+        })  # fmt: skip
+    return steps
+
+
+def test_elapsed_time_is_path_over_speed_plus_scans_times_scan_time(episode):
+    assert len(episode) > 5
+    for step in episode:
+        info = step["info"]
+        expected = info["path_length_m"] / SPEED + info["steps"] * SCAN
+        assert abs(info["elapsed_s"] - expected) <= 1e-9
+        assert abs(info["remaining_s"] - (BUDGET - expected)) <= 1e-9
+    assert episode[0]["info"]["elapsed_s"] == 0.0  # the first scan starts the clock
+
+
+def test_the_valid_goals_are_the_reachable_goals_that_fit_in_the_remaining_time(episode):
+    for step in episode:
+        mask, cost_s, remaining = (
+            step["info"]["action_mask"].astype(bool),
+            step["cost_s"],
+            step["info"]["remaining_s"],
+        )
+        assert np.all(cost_s[mask] <= remaining + 1e-9)  # no valid goal overruns the time left
+        np.testing.assert_array_equal(mask, step["reachable"] & (cost_s <= remaining + 1e-9))
+    assert any(np.any(s["reachable"] & (s["cost_s"] > s["info"]["remaining_s"])) for s in episode)
+
+
+def test_the_episode_ends_when_the_budget_is_spent(episode):
+    *running, last = episode
+    info = last["info"]
+    assert last["end"] == (False, True)
+    assert info["end_reason"].startswith("time budget spent")
+    assert 0 <= info["remaining_s"] < np.min(last["cost_s"][last["reachable"]])
+    assert all(
+        step["info"]["end_reason"] == "" and step["end"] == (False, False) for step in running
+    )
+
+
+def test_the_cost_layer_is_the_shortest_path_cost_of_goals_beyond_the_sensor_range(episode):
+    far_goals = 0
+    for step in episode:
+        lengths = grid_path_lengths(step["passable"], step["robot"], 0.5)
+        goal_lengths = lengths.ravel()[step["goal_cells"]]
+        valid = step["info"]["action_mask"].astype(bool)
+        far = valid & (goal_lengths > 20.0)
+        far_goals += int(far.sum())
+        cost = step["obs"]["cost"].astype(float)
+        np.testing.assert_allclose(cost[far] * RANGE_M, goal_lengths[far], rtol=1e-6)
+        assert np.all(cost[~valid] == 1.0)
+        assert step["obs"] in step["space"]
+    assert far_goals > 100
+
+
+def test_the_state_progress_is_the_share_of_the_budget_spent(episode):
+    for step in episode:
+        expected = step["info"]["elapsed_s"] / BUDGET
+        assert step["obs"]["state"][5] == pytest.approx(expected, rel=1e-6, abs=1e-7)
+
+
+def test_defaults_and_refusals():
+    env = ExploreEnv(task="time", world=WORLD)
+    episode = env.config.simulator.episode
+    assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (
+        TIME_BUDGET_S, SPEED_MPS, SCAN_TIME_S)  # fmt: skip
+    assert episode.discovered_target is None
+    cap = EffortModel().scan_cap(TIME_BUDGET_S)
+    assert episode.max_steps == cap and cap * SCAN_TIME_S > TIME_BUDGET_S  # never binds
+    with pytest.raises(ConfigError, match="time_budget_s is the time task's budget"):
+        ExploreEnv(task="budget", world=WORLD, time_budget_s=100.0)
+    with pytest.raises(ConfigError, match="speed_mps: must be > 0"):
+        ExploreEnv(task="time", world=WORLD, speed_mps=0.0)
+    _, info = ExploreEnv(world=WORLD).reset(seed=0)
+    assert "elapsed_s" not in info  # the other tasks' info stays as pinned (test_digest.py)
+
+
+def grid_path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) -> np.ndarray:
+    """(nx, ny) 8-connected shortest path lengths over ``passable`` from ``start`` with scipy's
+    Dijkstra (an independent implementation)."""
+    nx, ny = passable.shape
+    ids = np.arange(nx * ny).reshape(nx, ny)
+    rows, cols, weights = [], [], []
+    for di, dj in [(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if (di, dj) != (0, 0)]:
+        a = ids[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)]
+        b = ids[max(0, di) : nx + min(0, di), max(0, dj) : ny + min(0, dj)]
+        ok = passable.ravel()[b.ravel()]
+        rows.append(a.ravel()[ok])
+        cols.append(b.ravel()[ok])
+        weights.append(np.full(ok.sum(), step_m * (np.sqrt(2) if di and dj else 1.0)))
+    graph = coo_matrix(
+        (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), (nx * ny,) * 2
+    ).tocsr()
+    return dijkstra(graph, indices=start[0] * ny + start[1]).reshape(nx, ny)

@@ -71,16 +71,22 @@ class Entry:
 
 def gather(paths: list[Path], references: bool) -> list[Entry]:
     """The entries of the scorecard files (or folders holding ``scorecard.json``) ``paths``,
-    plus the shipped references if ``references``; :class:`LeaderboardError` if there are none or
-    they belong to different suites or protocol versions."""
-    from nbv_gym.benchmark.references import load_references
+    plus, if ``references``, the shipped references of their suite (of the standard suite when
+    no path is given); :class:`LeaderboardError` if there are none, if that suite has no
+    references, or if the scorecards belong to different suites or protocol versions."""
+    from nbv_gym.benchmark.references import REFERENCE_SUITE, load_references
 
-    entries: list[Entry] = []
-    if references:
-        entries += [Entry(c["policy"]["name"], c, "references") for c in load_references()]
+    given: list[tuple[Path, dict[str, Any]]] = []
     for path in paths:
         path = path / "scorecard.json" if path.is_dir() else path
-        card = load_scorecard(path)
+        given.append((path, load_scorecard(path)))
+    entries: list[Entry] = []
+    if references:
+        suite = given[0][1]["suite"]["name"] if given else REFERENCE_SUITE.name
+        entries += [Entry(c["policy"]["name"], c, "references") for c in load_references(suite)]
+        if not entries:
+            raise LeaderboardError(_no_references(suite))
+    for path, card in given:
         label = card["policy"]["name"]
         if any(e.label == label for e in entries):
             label = f"{label} ({path})"
@@ -91,6 +97,17 @@ def gather(paths: list[Path], references: bool) -> list[Entry]:
         )
     check_comparable(entries)
     return entries
+
+
+def _no_references(suite: str) -> str:
+    from nbv_gym.benchmark.references import reference_suites
+
+    have = ", ".join(reference_suites()) or "none"
+    return (
+        f"No reference scorecards of the {suite!r} suite ship with this nbv-gym (suites with "
+        f"references: {have}). Rank without --references, or score on a suite that has them "
+        f"(`nbv-gym score POLICY --suite standard`)."
+    )
 
 
 def check_comparable(entries: list[Entry]) -> None:
@@ -110,7 +127,7 @@ def check_comparable(entries: list[Entry]) -> None:
     raise LeaderboardError(
         f"Cannot merge scorecards of different suites or protocol versions — {described}. Score "
         "every policy on the same suite with the same nbv-gym (`nbv-gym score POLICY --suite "
-        "standard`; the references are scored on the standard suite)."
+        "standard`; --references adds the references of the scorecards' suite)."
     )
 
 
@@ -151,25 +168,76 @@ def improvement(entry: Entry, best: Entry, seed: int = 0):
     return probability_of_improvement_interval(a, tasks_a, b, tasks_b, rng)
 
 
-def build_leaderboard(paths: list[Path], references: bool, out: Path) -> tuple[Path, Path]:
+@dataclass(frozen=True)
+class Leaderboard:
+    """What :func:`build_leaderboard` wrote (``markdown``, ``html``) and the ranking as plain
+    text for a terminal (``summary``)."""
+
+    markdown: Path
+    html: Path
+    summary: str
+
+
+def build_leaderboard(paths: list[Path], references: bool, out: Path) -> Leaderboard:
     """Write ``leaderboard.md``, ``leaderboard.html`` and the performance profiles
-    (``profiles.png``/``.svg``) into ``out``; the paths of the Markdown and HTML files."""
+    (``profiles.png``/``.svg``) into ``out``."""
     from nbv_gym.core.outputs import writable_folder
     from nbv_gym.reporting.html import write_html
 
     entries = gather(paths, references)
+    improvements = improvements_over_baseline(entries)
     out = writable_folder(out)
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
-    path.write_text(leaderboard_markdown(entries))
-    return path, write_html(path)
+    path.write_text(leaderboard_markdown(entries, improvements))
+    return Leaderboard(path, write_html(path), leaderboard_summary(entries, improvements))
 
 
-def leaderboard_markdown(entries: list[Entry]) -> str:
-    """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
-    the profiles figure."""
+def improvements_over_baseline(entries: list[Entry]) -> dict[str, Any]:
+    """``P(entry > baseline)`` with its interval (:func:`improvement`) per entry label; the
+    baseline itself is left out."""
+    best = baseline(entries)
+    return {e.label: improvement(e, best) for e in entries if e is not best}
+
+
+def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | None = None) -> str:
+    """The ranking as a plain-text table: rank, policy, the ranking score with its interval,
+    ``P(better than baseline)``; oracles last; ``*`` marks scorecards given on the command line."""
     players, oracles = ranked(entries)
     best = baseline(entries)
+    improvements = improvements_over_baseline(entries) if improvements is None else improvements
+    header = ["rank", "policy", "test: IQM of Q after the budget", f"P(better than {best.label})"]
+    rows = [header]
+    for rank, entry in [
+        *((str(i + 1), e) for i, e in enumerate(players)),
+        *(("oracle", e) for e in oracles),
+    ]:
+        test = entry.card["aggregates"].get(RANK_SPLIT)
+        poi = improvements.get(entry.label)
+        rows.append([
+            rank,
+            entry.label + ("" if entry.reference else " *"),
+            interval_text(test["all"], "iqm") if test else "—",
+            "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]",
+        ])  # fmt: skip
+    widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
+    lines = [
+        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()
+        for row in rows
+    ]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    if any(not e.reference for e in entries) and any(e.reference for e in entries):
+        lines.append("* given on the command line; the others are the shipped references")
+    return "\n".join(lines)
+
+
+def leaderboard_markdown(entries: list[Entry], improvements: dict[str, Any] | None = None) -> str:
+    """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
+    the profiles figure; ``improvements`` (:func:`improvements_over_baseline`) computed when not
+    given."""
+    players, oracles = ranked(entries)
+    best = baseline(entries)
+    improvements = improvements_over_baseline(entries) if improvements is None else improvements
     suite, version = entries[0].card["suite"], entries[0].card["protocol_version"]
     lines = [
         "# Leaderboard",
@@ -179,7 +247,7 @@ def leaderboard_markdown(entries: list[Entry]) -> str:
         "",
         _legend(best),
         "",
-        _tables(players, best, rank=True),
+        _tables(players, best, improvements, rank=True),
     ]
     lines += _pending(entries)
     if oracles:
@@ -191,7 +259,7 @@ def leaderboard_markdown(entries: list[Entry]) -> str:
             "pose, the world's name or realised gains), which no robot has: they bound what is "
             "reachable and are not ranked with the others.",
             "",
-            _tables(oracles, best, rank=False),
+            _tables(oracles, best, improvements, rank=False),
         ]
     lines += [
         "",
@@ -217,7 +285,7 @@ def _pending(entries: list[Entry]) -> list[str]:
     return ["", f"Shipped policies without a reference scorecard yet: {named}."]
 
 
-def _tables(entries: list[Entry], best: Entry, rank: bool) -> str:
+def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], rank: bool) -> str:
     """The scores table and the effort table of ``entries``."""
     from nbv_gym.reporting.formatting import markdown_table
 
@@ -234,7 +302,11 @@ def _tables(entries: list[Entry], best: Entry, rank: bool) -> str:
     return "\n\n".join(
         [
             markdown_table(
-                scores, [_score_row(r, e, best) for r, e in zip(ranks, entries, strict=True)]
+                scores,
+                [
+                    _score_row(r, e, improvements.get(e.label))
+                    for r, e in zip(ranks, entries, strict=True)
+                ],
             ),
             "Effort behind the score (test split, means per run):",
             markdown_table(
@@ -261,10 +333,10 @@ def _name(entry: Entry) -> str:
     return f"`{entry.label}`" if entry.reference else f"**`{entry.label}`**"
 
 
-def _score_row(rank: str, entry: Entry, best: Entry) -> list[Any]:
-    """One row of the scores table."""
+def _score_row(rank: str, entry: Entry, poi: Any) -> list[Any]:
+    """One row of the scores table; ``poi``: its ``P(better than baseline)`` (None: the
+    baseline)."""
     aggregates = entry.card["aggregates"]
-    poi = improvement(entry, best) if entry is not best else None
     return [
         rank,
         _name(entry),

@@ -64,13 +64,19 @@ def leaderboard(
         typer.Argument(help="scorecard.json files of `nbv-gym score` (or their folders)."),
     ] = None,
     references: Annotated[
-        bool, typer.Option("--references", help="Add the shipped policies' reference scorecards.")
+        bool,
+        typer.Option(
+            "--references",
+            help="Add the shipped policies' reference scorecards of the scorecards' suite "
+            "(of the standard suite when no scorecard is given).",
+        ),
     ] = False,
     out: Annotated[Path, typer.Option(help="Folder for leaderboard.md and .html.")] = Path(
         "leaderboard"
     ),
 ) -> None:
-    """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html).
+    """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html); the
+    ranking is printed too.
 
     Ranked by the IQM of Q after the budget on the test split; columns per split, Q_paper at
     70 %, discovered fraction, path length, decision time, and the probability that the policy
@@ -87,5 +93,6 @@ def leaderboard(
     """
     from nbv_gym.benchmark.leaderboard import build_leaderboard
 
-    markdown, html = build_leaderboard(list(scorecards or []), references, out)
-    typer.echo(f"leaderboard: {markdown} and {html}")
+    board = build_leaderboard(list(scorecards or []), references, out)
+    typer.echo(board.summary)
+    typer.echo(f"leaderboard: {board.markdown} and {board.html}")

@@ -29,7 +29,7 @@ from nbv_gym.policies.registry import MODELS, POLICIES
 from nbv_gym.worlds.distribution import distribution_names
 from nbv_gym.worlds.spec import benchmark_names
 
-ROOT = Path(__file__).parents[2]
+ROOT = Path(__file__).parents[1]
 PAGES = [ROOT / "README.md", ROOT / "CONTRIBUTING.md", *sorted((ROOT / "docs").glob("*.md"))]
 #: The repository's folders a docs path may point into.
 REPO_FOLDERS = ("experiments/", "docs/", "nbv_gym/", "tests/", ".ci/")

@@ -90,7 +90,9 @@ def test_page_without_network_says_why_it_is_blank_and_how_to_write_one_that_nee
     message = page.index('id="nbv-gym-no-plotly"')
     assert page.index('src="https://cdn.plot.ly/plotly-') < message < page.index("</body>")
     assert "nbv-gym view RUN_DIR --offline" in page[message:]
-    assert 'typeof Plotly !== "undefined"' in page[message:]  # hidden only when the library is there
+    assert (
+        'typeof Plotly !== "undefined"' in page[message:]
+    )  # hidden only when the library is there
     assert "display: none" not in page[message : page.index("</div>", message)]  # shown by default
     offline = write_view(scene, run_folder / "offline.html", offline=True).read_text()
     assert "nbv-gym-no-plotly" not in offline

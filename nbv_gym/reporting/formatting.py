@@ -15,11 +15,17 @@ ORACLE_RULE = "*oracles: read privileged values, ranked apart*"
 
 
 def markdown_table(header: list[str], rows: list[list[Any]]) -> str:
-    """A GitHub-flavoured Markdown table."""
-    lines = ["| " + " | ".join(str(h) for h in header) + " |"]
+    """A GitHub-flavoured Markdown table; a ``|`` in a cell (a policy's name or a note) is
+    escaped, as GFM and markdown-it read it (in code spans too), so that it splits no cell."""
+    lines = ["| " + " | ".join(_cell(h) for h in header) + " |"]
     lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in rows]
+    lines += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+def _cell(value: Any) -> str:
+    """A table cell's text: ``|`` escaped, line breaks as spaces (a cell is one line)."""
+    return str(value).replace("|", "\\|").replace("\n", " ")
 
 
 def oracle_label(policy: str) -> str:

@@ -69,7 +69,7 @@ class Entry:
         return values, [(r["world"], r["noise"]) for r in runs]
 
 
-def gather(paths: list[Path], references: bool) -> list[Entry]:
+def gather(paths: list[str | Path], references: bool) -> list[Entry]:
     """The entries of the scorecard files (or folders holding ``scorecard.json``) ``paths``,
     plus, if ``references``, the shipped references of their suite (of the standard suite when
     no path is given); :class:`LeaderboardError` if there are none, if that suite has no
@@ -77,7 +77,7 @@ def gather(paths: list[Path], references: bool) -> list[Entry]:
     from nbv_gym.benchmark.references import REFERENCE_SUITE, load_references
 
     given: list[tuple[Path, dict[str, Any]]] = []
-    for path in paths:
+    for path in map(Path, paths):
         path = path / "scorecard.json" if path.is_dir() else path
         given.append((path, load_scorecard(path)))
     entries: list[Entry] = []
@@ -178,7 +178,7 @@ class Leaderboard:
     summary: str
 
 
-def build_leaderboard(paths: list[Path], references: bool, out: Path) -> Leaderboard:
+def build_leaderboard(paths: list[str | Path], references: bool, out: str | Path) -> Leaderboard:
     """Write ``leaderboard.md``, ``leaderboard.html`` and the performance profiles
     (``profiles.png``/``.svg``) into ``out``."""
     from nbv_gym.core.outputs import writable_folder
@@ -186,7 +186,7 @@ def build_leaderboard(paths: list[Path], references: bool, out: Path) -> Leaderb
 
     entries = gather(paths, references)
     improvements = improvements_over_baseline(entries)
-    out = writable_folder(out)
+    out = writable_folder(Path(out))
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
     path.write_text(leaderboard_markdown(entries, improvements))
@@ -202,10 +202,12 @@ def improvements_over_baseline(entries: list[Entry]) -> dict[str, Any]:
 
 def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | None = None) -> str:
     """The ranking as a plain-text table: rank, policy, the ranking score with its interval,
-    ``P(better than baseline)``; oracles last; ``*`` marks scorecards given on the command line."""
+    ``P(better than baseline)``; oracles last; beside references, ``*`` marks the scorecards
+    given on the command line."""
     players, oracles = ranked(entries)
     best = baseline(entries)
     improvements = improvements_over_baseline(entries) if improvements is None else improvements
+    mixed = any(e.reference for e in entries) and not all(e.reference for e in entries)
     header = ["rank", "policy", "test: IQM of Q after the budget", f"P(better than {best.label})"]
     rows = [header]
     for rank, entry in [
@@ -216,7 +218,7 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
         poi = improvements.get(entry.label)
         rows.append([
             rank,
-            entry.label + ("" if entry.reference else " *"),
+            entry.label + (" *" if mixed and not entry.reference else ""),
             interval_text(test["all"], "iqm") if test else "—",
             "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]",
         ])  # fmt: skip
@@ -226,7 +228,7 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
         for row in rows
     ]
     lines.insert(1, "  ".join("-" * w for w in widths))
-    if any(not e.reference for e in entries) and any(e.reference for e in entries):
+    if mixed:
         lines.append("* given on the command line; the others are the shipped references")
     return "\n".join(lines)
 
@@ -395,6 +397,8 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
         ax.set_ylim(0, 1.02)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("fraction of runs with score > τ")
-    axes[-1].legend(fontsize=7, loc="upper right")
+    drawn = [ax for ax in axes if ax.get_legend_handles_labels()[0]]  # a split may have no runs
+    if drawn:
+        drawn[-1].legend(fontsize=7, loc="upper right")
     fig.tight_layout()
     return save_figure(fig, path)

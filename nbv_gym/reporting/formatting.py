@@ -69,13 +69,31 @@ def asset_order(assets) -> list[str]:
     )
 
 
-def policy_colours(policies: list[str]) -> dict[str, Any]:
-    """A fixed colour per policy (the paper's seven first)."""
-    import matplotlib
+#: Twelve colours that stay apart on white, for the twelve shipped policies: matplotlib's tab10,
+#: then black and a dark teal.
+PALETTE = (
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+    "#bcbd22", "#17becf", "#000000", "#005f5f",
+)  # fmt: skip
 
-    palette = matplotlib.colormaps["tab10"].colors
-    ordered = [*PAPER_POLICIES, *(p for p in policies if p not in PAPER_POLICIES)]
-    return {p: palette[ordered.index(p) % len(palette)] for p in policies}
+
+def policy_colours(policies: list[str]) -> dict[str, Any]:
+    """A colour per policy label: the labels drawn take :data:`PALETTE`'s colours in turn, the
+    shipped policies first in a fixed order (the paper's seven, the references, the trained
+    models), then the others in the order given — so up to twelve labels never share a colour,
+    and a shipped policy keeps its colour from figure to figure of the same set."""
+    from nbv_gym.policies import MODELS, REFERENCE_POLICIES
+
+    shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS]
+
+    def rank(label: str) -> tuple[int, int]:
+        base = str(label).replace(ORACLE_MARK, "")
+        return (
+            (shipped.index(base), 0) if base in shipped else (len(shipped), policies.index(label))
+        )
+
+    ordered = sorted(dict.fromkeys(policies), key=rank)
+    return {p: PALETTE[i % len(PALETTE)] for i, p in enumerate(ordered)}
 
 
 def figure(width_in: float, height_in: float):

@@ -100,15 +100,19 @@ def load_scene(
 NO_PLOTLY_MESSAGE = (
     "This 3D view draws with plotly.js, loaded from its CDN (cdn.plot.ly), and it did not load: "
     "no network? Write the page again with the library inside it (3.5 MB more), which opens "
-    "anywhere: <code>nbv-gym view RUN_DIR --offline</code>."
+    "anywhere: <code style=\"white-space: nowrap\">nbv-gym view RUN_DIR --offline</code>."
 )
-_NO_PLOTLY_BLOCK = f"""
+#: The message, first in the page (the figure's empty box would push it out of sight), and the
+#: script, last, that hides it once the library has loaded.
+_NO_PLOTLY_MESSAGE_BLOCK = f"""
 <div id="nbv-gym-no-plotly" style="font: 16px sans-serif; margin: 2em; padding: 1em;
  border: 2px solid #b45309; background: #fffbeb; max-width: 50em">{NO_PLOTLY_MESSAGE}</div>
+"""
+_NO_PLOTLY_CHECK = """
 <script>
-if (typeof Plotly !== "undefined") {{
+if (typeof Plotly !== "undefined") {
   document.getElementById("nbv-gym-no-plotly").style.display = "none";
-}}
+}
 </script>
 """
 
@@ -122,7 +126,8 @@ def write_view(scene: Scene, path: str | Path, offline: bool = False) -> Path:
     page = figure.to_html(include_plotlyjs=True if offline else "cdn", full_html=True,
                           config={"responsive": True})  # fmt: skip
     if not offline:
-        page = page.replace("</body>", _NO_PLOTLY_BLOCK + "</body>", 1)
+        page = page.replace("<body>", "<body>" + _NO_PLOTLY_MESSAGE_BLOCK, 1)
+        page = page.replace("</body>", _NO_PLOTLY_CHECK + "</body>", 1)
     path.write_text(page, encoding="utf-8")
     return path
 

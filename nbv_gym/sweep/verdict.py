@@ -551,15 +551,16 @@ def verdict_tables(table) -> list[str]:
     """The verdict rows as Markdown, one table per family of claims (the claim's figure, e.g.
     ``Fig. 1`` or ``[fov] Budget``) and test, in order of appearance: the paper's statement and
     the test, when every row of a table shares them, are said once above it instead of on every
-    row. Lines."""
+    row; a column with nothing in it (every cell "—") is left out. Lines."""
     from nbv_gym.reporting.formatting import markdown_table
 
     family = table["claim"].str.split(":").str[0]
     lines: list[str] = []
     for (name, _), group in table.groupby([family, table["test"]], sort=False):
-        said = [c for c in SAID_ONCE if group[c].nunique() == 1]
+        said = [c for c in SAID_ONCE if group[c].nunique() == 1 and group[c].iloc[0] != "—"]
         lead = f"**{name}**" + "".join(f" — {c}: {group[c].iloc[0]}" for c in said)
-        shown = [c for c in SHOWN if c not in said]
+        empty = [c for c in SHOWN if (group[c].astype(str) == "—").all()]  # nothing to show
+        shown = [c for c in SHOWN if c not in said and c not in empty]
         lines += [lead, "", markdown_table(shown, group[shown].to_numpy().tolist()), ""]
     return lines[:-1]
 

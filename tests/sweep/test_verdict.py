@@ -229,5 +229,5 @@ def test_the_verdict_tables_say_a_shared_description_once():
     assert text.count("same claim") == 1 and text.count("test A") == 1
     assert text.count("test B") == 1 and "paper 0" in text and "paper 1" in text
     assert "**Fig. 1** — paper: same claim — test: test A" in text
-    assert "| claim | n | p | effect | ours | verdict |" in text  # test A's table
-    assert "| claim | paper | n | p | effect | ours | verdict |" in text  # test B's
+    assert "| claim | n | p | verdict |" in text  # test A's table: effect and ours all "—"
+    assert "| claim | paper | n | p | verdict |" in text  # test B's

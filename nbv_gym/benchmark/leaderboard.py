@@ -397,8 +397,10 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
         ax.set_ylim(0, 1.02)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("fraction of runs with score > τ")
-    drawn = [ax for ax in axes if ax.get_legend_handles_labels()[0]]  # a split may have no runs
-    if drawn:
-        drawn[-1].legend(fontsize=7, loc="upper right")
+    handles = {}  # every policy once, from whichever panel drew it (a split may lack its runs)
+    for ax in axes:
+        handles.update({label: h for h, label in zip(*ax.get_legend_handles_labels(), strict=True)})
+    if handles:
+        axes[-1].legend(handles.values(), handles.keys(), fontsize=7, loc="upper right")
     fig.tight_layout()
     return save_figure(fig, path)

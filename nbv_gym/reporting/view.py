@@ -100,7 +100,7 @@ def load_scene(
 NO_PLOTLY_MESSAGE = (
     "This 3D view draws with plotly.js, loaded from its CDN (cdn.plot.ly), and it did not load: "
     "no network? Write the page again with the library inside it (3.5 MB more), which opens "
-    "anywhere: <code style=\"white-space: nowrap\">nbv-gym view RUN_DIR --offline</code>."
+    'anywhere: <code style="white-space: nowrap">nbv-gym view RUN_DIR --offline</code>.'
 )
 #: The message, first in the page (the figure's empty box would push it out of sight), and the
 #: script, last, that hides it once the library has loaded.

@@ -182,11 +182,15 @@ def build_leaderboard(paths: list[str | Path], references: bool, out: str | Path
     """Write ``leaderboard.md``, ``leaderboard.html`` and the performance profiles
     (``profiles.png``/``.svg``) into ``out``."""
     from nbv_gym.core.outputs import writable_folder
+    from nbv_gym.core.progress import say
     from nbv_gym.reporting.html import write_html
 
     entries = gather(paths, references)
+    say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "
+        "bootstrap interval per entry…")  # fmt: skip
     improvements = improvements_over_baseline(entries)
     out = writable_folder(Path(out))
+    say("drawing the performance profiles…")
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
     path.write_text(leaderboard_markdown(entries, improvements))

@@ -96,22 +96,34 @@ class Entry:
         return values, [(r["world"], r["noise"]) for r in runs]
 
 
-def gather(paths: list[Path], references: bool) -> list[Entry]:
+def gather(paths: list[str | Path], references: bool) -> list[Entry]:
     """The entries of the scorecard files (or folders holding ``scorecard.json``) ``paths``,
-    plus the shipped references of this protocol version if ``references`` (stale ones are left
-    out: :func:`~nbv_gym.benchmark.references.pending_note`); :class:`LeaderboardError` if there
-    are none or they belong to different suites or protocol versions."""
-    from nbv_gym.benchmark.references import current_references, pending_note
+    plus, if ``references``, the shipped references of their suite (of the standard suite when
+    no path is given) that belong to this protocol version (stale ones are left out:
+    :func:`~nbv_gym.benchmark.references.pending_note`); :class:`LeaderboardError` if there are
+    none, if that suite has no references, or if the scorecards belong to different suites or
+    protocol versions."""
+    from nbv_gym.benchmark.references import (
+        REFERENCE_SUITE,
+        current_references,
+        load_references,
+        pending_note,
+    )
 
+    given: list[tuple[Path, dict[str, Any]]] = []
+    for path in map(Path, paths):
+        path = path / "scorecard.json" if path.is_dir() else path
+        given.append((path, load_scorecard(path)))
     entries: list[Entry] = []
     pending = ""
     if references:
-        current, stale = current_references()
+        suite = given[0][1]["suite"]["name"] if given else REFERENCE_SUITE.name
+        if not load_references(suite):
+            raise LeaderboardError(_no_references(suite))
+        current, stale = current_references(suite)
         entries += [Entry(c["policy"]["name"], c, "references") for c in current]
-        pending = pending_note(stale)
-    for path in paths:
-        path = path / "scorecard.json" if path.is_dir() else path
-        card = load_scorecard(path)
+        pending = pending_note(stale, suite)
+    for path, card in given:
         label = card["policy"]["name"]
         if any(e.label == label for e in entries):
             label = f"{label} ({path})"
@@ -123,6 +135,17 @@ def gather(paths: list[Path], references: bool) -> list[Entry]:
         )
     check_comparable(entries)
     return entries
+
+
+def _no_references(suite: str) -> str:
+    from nbv_gym.benchmark.references import reference_suites
+
+    have = ", ".join(reference_suites()) or "none"
+    return (
+        f"No reference scorecards of the {suite!r} suite ship with this nbv-gym (suites with "
+        f"references: {have}). Rank without --references, or score on a suite that has them "
+        f"(`nbv-gym score POLICY --suite standard`)."
+    )
 
 
 def check_comparable(entries: list[Entry]) -> None:
@@ -142,7 +165,7 @@ def check_comparable(entries: list[Entry]) -> None:
     raise LeaderboardError(
         f"Cannot merge scorecards of different suites or protocol versions — {described}. Score "
         "every policy on the same suite with the same nbv-gym (`nbv-gym score POLICY --suite "
-        "standard`; the references are scored on the standard suite)."
+        "standard`; --references adds the references of the scorecards' suite)."
     )
 
 
@@ -184,29 +207,89 @@ def improvement(entry: Entry, best: Entry, seed: int = 0):
     return probability_of_improvement_interval(a, tasks_a, b, tasks_b, rng)
 
 
-def build_leaderboard(paths: list[Path], references: bool, out: Path) -> tuple[Path, Path]:
+@dataclass(frozen=True)
+class Leaderboard:
+    """What :func:`build_leaderboard` wrote (``markdown``, ``html``) and the ranking as plain
+    text for a terminal (``summary``)."""
+
+    markdown: Path
+    html: Path
+    summary: str
+
+
+def build_leaderboard(paths: list[str | Path], references: bool, out: str | Path) -> Leaderboard:
     """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
     (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
-    ``out``; the paths of the Markdown and HTML files."""
+    ``out``."""
     from nbv_gym.core.outputs import writable_folder
+    from nbv_gym.core.progress import say
     from nbv_gym.reporting.html import write_html
 
     entries = gather(paths, references)
-    pending = _pending_references() if references else ""
-    out = writable_folder(out)
+    pending = _pending_references(entries) if references else ""
+    say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "
+        "bootstrap interval per entry…")  # fmt: skip
+    improvements = improvements_over_baseline(entries)
+    out = writable_folder(Path(out))
+    say("drawing Q against the robot's time and the performance profiles…")
     save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
-    path.write_text(leaderboard_markdown(entries, pending))
-    return path, write_html(path)
+    path.write_text(leaderboard_markdown(entries, improvements, pending))
+    summary = leaderboard_summary(entries, improvements) + (f"\n{pending}" if pending else "")
+    return Leaderboard(path, write_html(path), summary)
 
 
-def leaderboard_markdown(entries: list[Entry], pending: str = "") -> str:
-    """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
-    the figures; ``pending``: a note that references of this protocol version are pending,
-    shown in bold above the tables."""
+def improvements_over_baseline(entries: list[Entry]) -> dict[str, Any]:
+    """``P(entry > baseline)`` with its interval (:func:`improvement`) per entry label; the
+    baseline itself is left out."""
+    best = baseline(entries)
+    return {e.label: improvement(e, best) for e in entries if e is not best}
+
+
+def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | None = None) -> str:
+    """The ranking as a plain-text table: rank, policy, the ranking score with its interval,
+    ``P(better than baseline)``; oracles last; beside references, ``*`` marks the scorecards
+    given on the command line."""
     players, oracles = ranked(entries)
     best = baseline(entries)
+    improvements = improvements_over_baseline(entries) if improvements is None else improvements
+    mixed = any(e.reference for e in entries) and not all(e.reference for e in entries)
+    header = ["rank", "policy", SPLIT_COLUMNS[RANK_SPLIT], f"P(better than {best.label})"]
+    rows = [header]
+    for rank, entry in [
+        *((str(i + 1), e) for i, e in enumerate(players)),
+        *(("oracle", e) for e in oracles),
+    ]:
+        test = entry.card["aggregates"].get(RANK_SPLIT)
+        poi = improvements.get(entry.label)
+        rows.append([
+            rank,
+            entry.label + (" *" if mixed and not entry.reference else ""),
+            interval_text(test["all"], "iqm") if test else "—",
+            "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]",
+        ])  # fmt: skip
+    widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
+    lines = [
+        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip()
+        for row in rows
+    ]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    if mixed:
+        lines.append("* given on the command line; the others are the shipped references")
+    return "\n".join(lines)
+
+
+def leaderboard_markdown(
+    entries: list[Entry], improvements: dict[str, Any] | None = None, pending: str = ""
+) -> str:
+    """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
+    the figures; ``improvements`` (:func:`improvements_over_baseline`) computed when not given;
+    ``pending``: a note that references of this protocol version are pending, shown in bold
+    above the tables."""
+    players, oracles = ranked(entries)
+    best = baseline(entries)
+    improvements = improvements_over_baseline(entries) if improvements is None else improvements
     suite, version = entries[0].card["suite"], entries[0].card["protocol_version"]
     lines = [
         "# Leaderboard",
@@ -217,7 +300,7 @@ def leaderboard_markdown(entries: list[Entry], pending: str = "") -> str:
         *([f"**{pending}**", ""] if pending else []),
         _legend(best),
         "",
-        _tables(players, best, rank=True),
+        _tables(players, best, improvements, rank=True),
     ]
     lines += _pending(entries)
     if oracles:
@@ -229,7 +312,7 @@ def leaderboard_markdown(entries: list[Entry], pending: str = "") -> str:
             "pose, the world's name or realised gains), which no robot has: they bound what is "
             "reachable and are not ranked with the others.",
             "",
-            _tables(oracles, best, rank=False),
+            _tables(oracles, best, improvements, rank=False),
         ]
     lines += [
         "",
@@ -262,15 +345,16 @@ def _pending(entries: list[Entry]) -> list[str]:
     return ["", f"Shipped policies without a reference scorecard yet: {named}."]
 
 
-def _pending_references() -> str:
-    """The note that references of this protocol version are pending ("" when all are
-    current)."""
+def _pending_references(entries: list[Entry]) -> str:
+    """The note that references of the entries' suite for this protocol version are pending
+    ("" when all are current)."""
     from nbv_gym.benchmark.references import current_references, pending_note
 
-    return pending_note(current_references()[1])
+    suite = entries[0].card["suite"]["name"]
+    return pending_note(current_references(suite)[1], suite)
 
 
-def _tables(entries: list[Entry], best: Entry, rank: bool) -> str:
+def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], rank: bool) -> str:
     """The scores table and the effort table of ``entries``."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
     from nbv_gym.reporting.formatting import markdown_table
@@ -283,7 +367,11 @@ def _tables(entries: list[Entry], best: Entry, rank: bool) -> str:
     return "\n\n".join(
         [
             markdown_table(
-                scores, [_score_row(r, e, best) for r, e in zip(ranks, entries, strict=True)]
+                scores,
+                [
+                    _score_row(r, e, improvements.get(e.label))
+                    for r, e in zip(ranks, entries, strict=True)
+                ],
             ),
             "Effort behind the score (time task, test split; IQM [95 % interval] and means per "
             "run; Pareto: dominated by a policy with as high a mean Q at the budget for as short "
@@ -336,10 +424,10 @@ def _name(entry: Entry) -> str:
     return f"`{entry.label}`" if entry.reference else f"**`{entry.label}`**"
 
 
-def _score_row(rank: str, entry: Entry, best: Entry) -> list[Any]:
-    """One row of the scores table."""
+def _score_row(rank: str, entry: Entry, poi: Any) -> list[Any]:
+    """One row of the scores table; ``poi``: its ``P(better than baseline)`` (None: the
+    baseline)."""
     aggregates = entry.card["aggregates"]
-    poi = improvement(entry, best) if entry is not best else None
     return [
         rank,
         _name(entry),
@@ -434,6 +522,10 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
         ax.set_ylim(0, 1.02)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("fraction of runs with score > τ")
-    axes[-1].legend(fontsize=7, loc="upper right")
+    handles = {}  # every policy once, from whichever panel drew it (a split may lack its runs)
+    for ax in axes:
+        handles.update({label: h for h, label in zip(*ax.get_legend_handles_labels(), strict=True)})
+    if handles:
+        axes[-1].legend(handles.values(), handles.keys(), fontsize=7, loc="upper right")
     fig.tight_layout()
     return save_figure(fig, path)

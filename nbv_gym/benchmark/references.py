@@ -1,14 +1,18 @@
-"""Reference scorecards: every shipped policy scored on the standard suite, shipped in
-``nbv_gym/benchmark/references/<name>.json``, so that scoring a new policy runs only that policy
-and ``nbv-gym leaderboard --references`` ranks it against all of them.
+"""Reference scorecards: every shipped policy scored on a suite, shipped in
+``nbv_gym/benchmark/references/<suite>/<name>.json``, so that scoring a new policy runs only that
+policy and ``nbv-gym leaderboard --references`` ranks it against all of them, on the suite its
+scorecard was scored on. The standard suite's references ship; a suite gets references by adding
+its folder of scorecards (nothing else to change).
 
 Regenerate them (after a change that moves results; a test says when) with::
 
-    python -m nbv_gym.benchmark.references [NAME ...] [--work DIR] [--workers N] [--scheduler ADDRESS]
+    python -m nbv_gym.benchmark.references [NAME ...] [--suite SUITE] [--work DIR] [--workers N]
+        [--scheduler ADDRESS]
 
-which scores each named shipped policy (default: all of :func:`shipped_policies`) with
-:func:`~nbv_gym.benchmark.scoring.score_policy` into ``DIR/<name>/`` (resumable, default
-``references-work``) and copies its ``scorecard.json`` into the package folder.
+which scores each named shipped policy (default: all of :func:`shipped_policies`) on the suite
+(default: standard) with :func:`~nbv_gym.benchmark.scoring.score_policy` into
+``DIR/<suite>/<name>/`` (resumable, default ``references-work``) and copies its
+``scorecard.json`` into the suite's folder of the package.
 """
 
 from __future__ import annotations
@@ -21,16 +25,16 @@ from pathlib import Path
 from typing import Any
 
 from nbv_gym.benchmark.scorecard import load_scorecard
-from nbv_gym.benchmark.suites import PROTOCOL_VERSION, STANDARD
+from nbv_gym.benchmark.suites import PROTOCOL_VERSION, STANDARD, SUITES, Suite, get_suite
 
-#: The folder of the shipped reference scorecards.
+#: The folder of the shipped reference scorecards, one subfolder per suite.
 REFERENCE_DIR = Path(__file__).with_name("references")
-#: The suite the references are scored on.
+#: The suite references are scored on unless another is named (the one whose references ship).
 REFERENCE_SUITE = STANDARD
 #: Shipped policies whose reference scorecard is not shipped (yet), with the reason. The
-#: leaderboard names them; a test keeps this honest (no file for a pending policy, and every
-#: other shipped policy has one). Generate one with ``python -m nbv_gym.benchmark.references
-#: NAME`` and delete its entry here.
+#: leaderboard names them; a test keeps this honest for every suite that has references (no file
+#: for a pending policy, and every other shipped policy has one). Generate one with
+#: ``python -m nbv_gym.benchmark.references NAME`` and delete its entry here.
 PENDING: dict[str, str] = {}
 
 
@@ -41,33 +45,43 @@ def shipped_policies() -> list[str]:
     return [*POLICIES, *MODELS]
 
 
-def reference_path(name: str) -> Path:
-    """The reference scorecard file of the shipped policy ``name``."""
-    return REFERENCE_DIR / f"{name}.json"
+def reference_path(name: str, suite: str = REFERENCE_SUITE.name) -> Path:
+    """The reference scorecard file of the shipped policy ``name`` on ``suite``."""
+    return REFERENCE_DIR / suite / f"{name}.json"
 
 
-def load_references() -> list[dict[str, Any]]:
-    """The shipped reference scorecards, in :func:`shipped_policies` order (those that exist)."""
-    return [
-        load_scorecard(reference_path(n)) for n in shipped_policies() if reference_path(n).is_file()
-    ]
+def reference_suites() -> list[str]:
+    """The suites (in :data:`~nbv_gym.benchmark.suites.SUITES` order) whose folder holds
+    reference scorecards."""
+    return [name for name in SUITES if any((REFERENCE_DIR / name).glob("*.json"))]
 
 
-def is_current(card: dict[str, Any]) -> bool:
+def load_references(suite: str = REFERENCE_SUITE.name) -> list[dict[str, Any]]:
+    """The shipped reference scorecards of ``suite``, in :func:`shipped_policies` order (those
+    that exist; none for a suite without references)."""
+    paths = [reference_path(n, suite) for n in shipped_policies()]
+    return [load_scorecard(path) for path in paths if path.is_file()]
+
+
+def is_current(card: dict[str, Any], suite: str = REFERENCE_SUITE.name) -> bool:
     """Whether the reference scorecard ``card`` belongs to this package's protocol version and
-    reference suite (a stale one is never mixed into a leaderboard)."""
-    suite = card["suite"]
+    to ``suite`` as it is now (a stale one is never mixed into a leaderboard)."""
     return (
         card["protocol_version"] == PROTOCOL_VERSION
-        and suite["name"] == REFERENCE_SUITE.name
-        and suite["hash"] == REFERENCE_SUITE.content_hash()
+        and card["suite"]["name"] == suite
+        and card["suite"]["hash"] == get_suite(suite).content_hash()
     )
 
 
-def current_references() -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """(current, stale): the shipped reference scorecards split by :func:`is_current`."""
-    cards = load_references()
-    return [c for c in cards if is_current(c)], [c for c in cards if not is_current(c)]
+def current_references(
+    suite: str = REFERENCE_SUITE.name,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """(current, stale): the shipped reference scorecards of ``suite`` split by
+    :func:`is_current`."""
+    cards = load_references(suite)
+    return [c for c in cards if is_current(c, suite)], [
+        c for c in cards if not is_current(c, suite)
+    ]
 
 
 def references_pending() -> bool:
@@ -76,16 +90,16 @@ def references_pending() -> bool:
     return bool(current_references()[1])
 
 
-def pending_note(stale: list[dict[str, Any]]) -> str:
-    """One sentence saying that references for this protocol version are pending, naming the
-    versions the ``stale`` ones were scored under ("" if none is stale)."""
+def pending_note(stale: list[dict[str, Any]], suite: str = REFERENCE_SUITE.name) -> str:
+    """One sentence saying that references of ``suite`` for this protocol version are pending,
+    naming the versions the ``stale`` ones were scored under ("" if none is stale)."""
     if not stale:
         return ""
     versions = sorted({c["protocol_version"] for c in stale})
     names = ", ".join(c["policy"]["name"] for c in stale)
     return (
-        f"References for protocol version {PROTOCOL_VERSION} (suite {REFERENCE_SUITE.name}, "
-        f"hash {REFERENCE_SUITE.content_hash()}) are pending: the shipped references of {names} "
+        f"References for protocol version {PROTOCOL_VERSION} (suite {suite}, "
+        f"hash {get_suite(suite).content_hash()}) are pending: the shipped references of {names} "
         f"were scored under protocol version {', '.join(map(str, versions))} or another suite, "
         "and are left out rather than mixed in (regenerate them: python -m "
         "nbv_gym.benchmark.references)."
@@ -97,22 +111,22 @@ def regenerate(
     work: Path,
     workers: int | None = None,
     say: Callable[[str], None] = print,
+    suite: Suite = REFERENCE_SUITE,
     scheduler: str | None = None,
 ) -> list[Path]:
-    """Score each of ``names`` on :data:`REFERENCE_SUITE` into ``work/<name>`` (locally, or on
-    the Dask ``scheduler``) and copy the scorecard into :data:`REFERENCE_DIR`; the written
+    """Score each of ``names`` on ``suite`` into ``work/<suite>/<name>`` (locally, or on the Dask
+    ``scheduler``) and copy the scorecard into the suite's reference folder; the written
     reference files."""
     from nbv_gym.benchmark.scoring import score_policy
 
     written = []
-    REFERENCE_DIR.mkdir(exist_ok=True)
+    (REFERENCE_DIR / suite.name).mkdir(parents=True, exist_ok=True)
     for name in names:
-        out = work / name
-        score_policy(
-            name, REFERENCE_SUITE, out, workers, progress=False, say=say, scheduler=scheduler
-        )
-        written.append(Path(shutil.copyfile(out / "scorecard.json", reference_path(name))))
-        say(f"{name}: reference written to {reference_path(name)}")
+        out = work / suite.name / name
+        score_policy(name, suite, out, workers, progress=False, say=say, scheduler=scheduler)
+        target = reference_path(name, suite.name)
+        written.append(Path(shutil.copyfile(out / "scorecard.json", target)))
+        say(f"{name}: reference written to {target}")
     return written
 
 
@@ -120,8 +134,8 @@ def main(argv: list[str] | None = None) -> None:
     """``python -m nbv_gym.benchmark.references``: see the module docstring."""
     parser = argparse.ArgumentParser(
         prog="python -m nbv_gym.benchmark.references",
-        description="Score shipped policies on the standard suite and store their scorecards "
-        "as the package's references.",
+        description="Score shipped policies on a suite and store their scorecards as the "
+        "package's references of that suite.",
     )
     parser.add_argument("names", nargs="*", help="shipped policies [default: all]")
     parser.add_argument("--work", type=Path, default=Path("references-work"),
@@ -129,13 +143,18 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=None, help="worker processes")
     parser.add_argument("--scheduler", default=None,
                         help="a Dask scheduler address or 'local' (as nbv-gym score)")  # fmt: skip
+    parser.add_argument("--suite", default=REFERENCE_SUITE.name, choices=list(SUITES),
+                        help=f"the suite [default: {REFERENCE_SUITE.name}]")  # fmt: skip
     args = parser.parse_args(argv)
     unknown = sorted(set(args.names) - set(shipped_policies()))
     if unknown:
         parser.error(
             f"not shipped policies: {', '.join(unknown)}; shipped: {', '.join(shipped_policies())}"
         )
-    regenerate(args.names or shipped_policies(), args.work, args.workers, _stderr, args.scheduler)
+    suite = get_suite(args.suite)
+    regenerate(
+        args.names or shipped_policies(), args.work, args.workers, _stderr, suite, args.scheduler
+    )
 
 
 def _stderr(message: str) -> None:

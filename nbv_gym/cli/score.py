@@ -82,13 +82,19 @@ def leaderboard(
         typer.Argument(help="scorecard.json files of `nbv-gym score` (or their folders)."),
     ] = None,
     references: Annotated[
-        bool, typer.Option("--references", help="Add the shipped policies' reference scorecards.")
+        bool,
+        typer.Option(
+            "--references",
+            help="Add the shipped policies' reference scorecards of the scorecards' suite "
+            "(of the standard suite when no scorecard is given).",
+        ),
     ] = False,
     out: Annotated[Path, typer.Option(help="Folder for leaderboard.md and .html.")] = Path(
         "leaderboard"
     ),
 ) -> None:
-    """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html).
+    """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html); the
+    ranking is printed too.
 
     Ranked by the IQM of the area under Q(t) over the time budget (equal robot time: travel
     and scans charged) on the test split; columns per split and task, each naming what it
@@ -108,5 +114,6 @@ def leaderboard(
     """
     from nbv_gym.benchmark.leaderboard import build_leaderboard
 
-    markdown, html = build_leaderboard(list(scorecards or []), references, out)
-    typer.echo(f"leaderboard: {markdown} and {html}")
+    board = build_leaderboard(list(scorecards or []), references, out)
+    typer.echo(board.summary)
+    typer.echo(f"leaderboard: {board.markdown} and {board.html}")

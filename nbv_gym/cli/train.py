@@ -36,6 +36,14 @@ def train(
         int | None,
         typer.Option(help="Parallel environments (overrides n_envs).", parser=POSITIVE_COUNT),
     ] = None,
+    batch_size: Annotated[
+        int | None,
+        typer.Option(
+            help="PPO's minibatch size, at most n_steps · n_envs (overrides learning.batch_size; "
+            "e.g. 128 with --n-envs 1).",
+            parser=POSITIVE_COUNT,
+        ),
+    ] = None,
     seed: Annotated[int | None, typer.Option(help="Seed (overrides seed).", parser=COUNT)] = None,
     scheduler: Annotated[
         str | None,
@@ -87,6 +95,7 @@ def train(
       nbv-gym train --config ppo --timesteps 5000 \\
           --out runs/ppo-short
       nbv-gym train --config ppo --eval-every 2000
+      nbv-gym train --config ppo --n-envs 1 --batch-size 128
       nbv-gym train --config ppo --n-envs 16 \\
           --device cuda --time-limit 9
       nbv-gym train --config ppo --scheduler local --n-envs 4
@@ -104,7 +113,7 @@ def train(
 
     overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
                  "eval_every_steps": eval_every, "device": device,
-                 "scheduler": scheduler}  # fmt: skip
+                 "scheduler": scheduler, "learning.batch_size": batch_size}  # fmt: skip
     config_path = config_file(config, "train")
     settings = load_train_config(config_path, overrides)
     out = claim_folder(out or Path("runs") / config_path.stem, "train")

@@ -15,11 +15,17 @@ ORACLE_RULE = "*oracles: read privileged values, ranked apart*"
 
 
 def markdown_table(header: list[str], rows: list[list[Any]]) -> str:
-    """A GitHub-flavoured Markdown table."""
-    lines = ["| " + " | ".join(str(h) for h in header) + " |"]
+    """A GitHub-flavoured Markdown table; a ``|`` in a cell (a policy's name or a note) is
+    escaped, as GFM and markdown-it read it (in code spans too), so that it splits no cell."""
+    lines = ["| " + " | ".join(_cell(h) for h in header) + " |"]
     lines.append("|" + "|".join("---" for _ in header) + "|")
-    lines += ["| " + " | ".join(str(v) for v in row) + " |" for row in rows]
+    lines += ["| " + " | ".join(_cell(v) for v in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+def _cell(value: Any) -> str:
+    """A table cell's text: ``|`` escaped, line breaks as spaces (a cell is one line)."""
+    return str(value).replace("|", "\\|").replace("\n", " ")
 
 
 def oracle_label(policy: str) -> str:
@@ -63,13 +69,31 @@ def asset_order(assets) -> list[str]:
     )
 
 
-def policy_colours(policies: list[str]) -> dict[str, Any]:
-    """A fixed colour per policy (the paper's seven first)."""
-    import matplotlib
+#: Twelve colours that stay apart on white, for the twelve shipped policies: matplotlib's tab10,
+#: then black and a dark gold (a dark teal read as tab10's blue in thin lines).
+PALETTE = (
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+    "#bcbd22", "#17becf", "#000000", "#f5c200",
+)  # fmt: skip
 
-    palette = matplotlib.colormaps["tab10"].colors
-    ordered = [*PAPER_POLICIES, *(p for p in policies if p not in PAPER_POLICIES)]
-    return {p: palette[ordered.index(p) % len(palette)] for p in policies}
+
+def policy_colours(policies: list[str]) -> dict[str, Any]:
+    """A colour per policy label: the labels drawn take :data:`PALETTE`'s colours in turn, the
+    shipped policies first in a fixed order (the paper's seven, the references, the trained
+    models), then the others in the order given — so up to twelve labels never share a colour,
+    and a shipped policy keeps its colour from figure to figure of the same set."""
+    from nbv_gym.policies import MODELS, REFERENCE_POLICIES
+
+    shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS]
+
+    def rank(label: str) -> tuple[int, int]:
+        base = str(label).replace(ORACLE_MARK, "")
+        return (
+            (shipped.index(base), 0) if base in shipped else (len(shipped), policies.index(label))
+        )
+
+    ordered = sorted(dict.fromkeys(policies), key=rank)
+    return {p: PALETTE[i % len(PALETTE)] for i, p in enumerate(ordered)}
 
 
 def figure(width_in: float, height_in: float):

@@ -1,6 +1,6 @@
 """The words of a reproduction verdict, shared by the sweep's and the studies' reports: a claim of
 a paper is reproduced, partly reproduced, not reproduced, inconclusive (the sample cannot reach
-significance), without data, or not reproducible here."""
+significance), without the paper's value, without data, or not reproducible here."""
 
 from __future__ import annotations
 
@@ -11,9 +11,19 @@ PARTLY = "partly"
 NOT_REPRODUCED = "not reproduced"
 INCONCLUSIVE = "inconclusive"
 NO_DATA = "no data"
+#: The verdict of a claim whose value the paper does not give (legibly): ours is shown alone.
+NO_PAPER_VALUE = "no paper value"
 NOT_REPRODUCIBLE = "not reproducible here"
 #: Every verdict word, in the order summaries list them.
-VERDICTS = (REPRODUCED, PARTLY, NOT_REPRODUCED, INCONCLUSIVE, NO_DATA, NOT_REPRODUCIBLE)
+VERDICTS = (
+    REPRODUCED,
+    PARTLY,
+    NOT_REPRODUCED,
+    INCONCLUSIVE,
+    NO_PAPER_VALUE,
+    NO_DATA,
+    NOT_REPRODUCIBLE,
+)
 
 
 def inconclusive(n: int) -> str:

@@ -1,8 +1,9 @@
 """A 3D view of an exploration that a person can turn around: one self-contained HTML file.
 
 ``nbv-gym view RUN_DIR`` (or ``MAP.npz``) draws with plotly. The page loads plotly.js from its
-CDN (a page of a few hundred kB to a few MB, the points alone); ``offline=True`` inlines the
-3.5 MB library so that the file opens without a network:
+CDN (a page of a few hundred kB to a few MB, the points alone) and, opened without a network,
+says so and how to write one that needs none; ``offline=True`` inlines the 3.5 MB library so
+that the file opens without a network:
 
 - the map's occupied voxels (probability ≥ ``min_probability``, centre at least ``min_z_m``
   high: the default 0.2 m leaves out the ground, whose lidar rings would hide everything else,
@@ -94,13 +95,40 @@ def load_scene(
     return Scene(voxels[keep], values[keep], label, truth, poses, title)
 
 
+#: Shown in place of the figure when plotly.js did not load (the page opened without a network):
+#: what happened and the command that writes a page that needs none.
+NO_PLOTLY_MESSAGE = (
+    "This 3D view draws with plotly.js, loaded from its CDN (cdn.plot.ly), and it did not load: "
+    "no network? Write the page again with the library inside it (3.5 MB more), which opens "
+    'anywhere: <code style="white-space: nowrap">nbv-gym view RUN_DIR --offline</code>.'
+)
+#: The message, first in the page (the figure's empty box would push it out of sight), and the
+#: script, last, that hides it once the library has loaded.
+_NO_PLOTLY_MESSAGE_BLOCK = f"""
+<div id="nbv-gym-no-plotly" style="font: 16px sans-serif; margin: 2em; padding: 1em;
+ border: 2px solid #b45309; background: #fffbeb; max-width: 50em">{NO_PLOTLY_MESSAGE}</div>
+"""
+_NO_PLOTLY_CHECK = """
+<script>
+if (typeof Plotly !== "undefined") {
+  document.getElementById("nbv-gym-no-plotly").style.display = "none";
+}
+</script>
+"""
+
+
 def write_view(scene: Scene, path: str | Path, offline: bool = False) -> Path:
     """Write ``scene`` as one HTML page to ``path``: plotly.js from its CDN, or inlined when
-    ``offline`` (the page then opens without a network, 3.5 MB larger)."""
+    ``offline`` (the page then opens without a network, 3.5 MB larger). A page that loads the
+    library from the CDN says so in place of the figure when it opens without a network."""
     path = Path(path)
     figure = scene_figure(scene)
-    figure.write_html(path, include_plotlyjs=True if offline else "cdn", full_html=True,
-                      config={"responsive": True})  # fmt: skip
+    page = figure.to_html(include_plotlyjs=True if offline else "cdn", full_html=True,
+                          config={"responsive": True})  # fmt: skip
+    if not offline:
+        page = page.replace("<body>", "<body>" + _NO_PLOTLY_MESSAGE_BLOCK, 1)
+        page = page.replace("</body>", _NO_PLOTLY_CHECK + "</body>", 1)
+    path.write_text(page, encoding="utf-8")
     return path
 
 

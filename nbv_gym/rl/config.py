@@ -148,8 +148,8 @@ class TrainConfig:
             "PPO" not in self.algorithm or self.learning.batch_size <= rollout,
             "learning.batch_size",
             f"must be ≤ n_steps · n_envs = {self.learning.n_steps} · {self.n_envs} = {rollout} "
-            f"(the steps of one update), got {self.learning.batch_size}; lower it or raise "
-            "n_steps or n_envs",
+            f"(the steps of one update), got {self.learning.batch_size}; lower it (nbv-gym "
+            f"train --batch-size {rollout}) or raise n_steps or n_envs",
         )
         check(len(self.train_worlds) >= 1, "train_worlds", "name at least one world")
         for key in ("train_worlds", "eval_worlds"):
@@ -199,8 +199,16 @@ class TrainConfig:
 
 
 def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:
-    """The :class:`TrainConfig` of a TOML file, with ``overrides`` (top-level keys, e.g. from
-    the command line) applied; unknown keys raise :class:`ConfigError` naming them."""
+    """The :class:`TrainConfig` of a TOML file, with ``overrides`` (keys, e.g. from the command
+    line; ``"learning.batch_size"`` sets a key of a table) applied; unknown keys raise
+    :class:`ConfigError` naming them."""
     data = read_toml(path, "Training config")
-    data.update({k: v for k, v in (overrides or {}).items() if v is not None})
+    for key, value in (overrides or {}).items():
+        if value is None:
+            continue
+        table, _, name = key.rpartition(".")
+        target = data
+        for part in filter(None, table.split(".")):
+            target = target.setdefault(part, {})
+        target[name] = value
     return from_dict(TrainConfig, data)

@@ -3,17 +3,21 @@ conventions of the stable-baselines3 ecosystem (the Hugging Face Hub's ``hugging
 rl-zoo3 write the same files), evaluated with action masks, which the hub helpers' evaluation
 does not apply.
 
-The folder holds the model zip (``<algorithm>-<env>.zip``), its training config
-(``config.toml``), ``results.json`` (the evaluation: ``mean_reward``, ``std_reward``,
-``n_eval_episodes``, … and every episode), a model card ``README.md`` whose YAML front matter is
-the hub's metadata block (``library_name: stable-baselines3``, tags with the env id,
-``model-index`` with the metrics), ``replay.gif`` (the first evaluation episode) and
-``learning_curve.png`` when the run has one. ``sb3:FOLDER`` loads it back as a policy.
+The folder holds the model zip (``<algo>-<env>.zip`` as rl-zoo3 names it, e.g.
+``ppo_mask-nbv_gym-ExploreBudget-v0.zip``), its training config (``config.toml``),
+``results.json`` (the evaluation: ``mean_reward``, ``std_reward``, ``n_eval_episodes``, … and
+every episode), a model card ``README.md`` whose YAML front matter is the hub's metadata block
+(``library_name: stable-baselines3``, tags with the env id, ``model-index`` with the metrics),
+``replay.gif`` (the first evaluation episode), ``learning_curve.png`` when the run has one, and
+the files rl-zoo3's hub tooling reads (``config.yml``, ``env_kwargs.yml``, ``args.yml``,
+``train_eval_metrics.zip``), so ``rl_zoo3.load_from_hub`` and ``rl_zoo3.enjoy`` load it too.
+``sb3:FOLDER`` loads it back as a policy.
 
 The evaluation runs the model deterministically on the held-out worlds of its config
 (``eval_worlds``), ``episodes`` episodes each, under the task, noise level and budget it was
 trained for; MaskablePPO acts among the valid goals only. Intervals are 95 % bootstrap
-intervals of the mean over the episodes.
+intervals of the mean over the episodes: resampled within each world when every world has two
+episodes or more, across the worlds otherwise.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.core.config import to_dict
 from nbv_gym.core.outputs import writable_folder
 from nbv_gym.core.protocol import TASK_IDS
 from nbv_gym.policies import PolicyError
@@ -39,6 +44,13 @@ MODEL_CARD = "README.md"
 RESULTS = "results.json"
 REPLAY = "replay.gif"
 CONFIG = "config.toml"
+#: The files rl-zoo3's hub tooling (``rl_zoo3.load_from_hub``) reads beside the model zip: the
+#: hyper-parameters, the environment's keyword arguments, the run's arguments and its metrics.
+ZOO_CONFIG, ZOO_ENV_KWARGS, ZOO_ARGS, ZOO_METRICS = (
+    "config.yml", "env_kwargs.yml", "args.yml", "train_eval_metrics.zip"
+)  # fmt: skip
+#: nbv-gym's algorithm names → rl-zoo3's (``--algo``), which name the model zip.
+ZOO_ALGOS = {"MaskablePPO": "ppo_mask", "PPO": "ppo", "A2C": "a2c"}
 #: The model file a run folder is packaged from by default, then the next one.
 RUN_MODELS = ("final_model.zip", "best_model.zip")
 #: The model card's tags after the env id: the SB3 hub's, then the project's.
@@ -114,7 +126,7 @@ def package(
     config = load_train_config(source.config)
     policy = SB3Policy(source.model)
     env_id = TASK_IDS[config.task]
-    model_name = f"{config.algorithm.lower()}-{env_id.rpartition('/')[2]}.zip"
+    model_name = zoo_model_name(config.algorithm, env_id)
     for stale in out.glob("*.zip"):  # one model per folder: sb3:FOLDER loads it
         stale.unlink()
     shutil.copyfile(source.model, out / model_name)
@@ -124,9 +136,63 @@ def package(
     rows = evaluate(policy, config, episodes, seed, out / REPLAY, progress)
     results = summarise(rows, config, policy.masked, seed)
     (out / RESULTS).write_text(json.dumps(results, indent=2) + "\n")
+    write_zoo_files(config, env_id, out)
     card = model_card(config, env_id, model_name, results, source.curve is not None)
     (out / MODEL_CARD).write_text(card)
     return results
+
+
+def zoo_model_name(algorithm: str, env_id: str) -> str:
+    """The model zip's name as rl-zoo3's hub tooling looks it up: ``<algo>-<env>.zip`` with
+    rl-zoo3's algorithm key and the env id's ``/`` as ``-`` (``ppo_mask-nbv_gym-ExploreBudget-v0.zip``)."""
+    return f"{ZOO_ALGOS[algorithm]}-{env_id.replace('/', '-')}.zip"
+
+
+def zoo_env_kwargs(config: TrainConfig) -> dict[str, Any]:
+    """The environment's keyword arguments for rl-zoo3 (``env_kwargs.yml``): the first held-out
+    world, the noise level, the budget and the layers of training; ``invalid_action: snap``,
+    since rl-zoo3's ``enjoy`` passes no action masks."""
+    return {
+        "world": (config.eval_worlds or config.train_worlds)[0],
+        "noise": config.noise,
+        "max_steps": config.max_steps,
+        "observation_layers": list(config.observation_layers),
+        "invalid_action": "snap",
+    }
+
+
+def write_zoo_files(config: TrainConfig, env_id: str, out: Path) -> None:
+    """The files rl-zoo3's hub tooling reads beside the model (:data:`ZOO_CONFIG`, …): its
+    hyper-parameters as rl-zoo3 saves them (no ``VecNormalize``: nbv-gym scales the reward in
+    the environment), the environment's keyword arguments, the run's arguments, and the
+    evaluation zipped as the run's metrics."""
+    import zipfile
+
+    import yaml
+
+    from nbv_gym.rl.train import policy_setup
+
+    policy, _ = policy_setup(config)
+    learning = to_dict(config.learning)
+    if config.algorithm == "A2C":  # PPO's keys only, as nbv-gym train drops them
+        for key in ("batch_size", "n_epochs", "clip_range"):
+            learning.pop(key)
+    hyperparameters = {
+        "policy": policy if isinstance(policy, str) else f"{policy.__module__}.{policy.__name__}",
+        "n_timesteps": config.total_timesteps,
+        "n_envs": config.n_envs,
+        "normalize": False,
+        **learning,
+    }
+    env_kwargs = zoo_env_kwargs(config)
+    arguments = {"algo": ZOO_ALGOS[config.algorithm], "env": env_id, "gym_packages": ["nbv_gym"],
+                 "env_kwargs": env_kwargs, "seed": config.seed,
+                 "n_timesteps": config.total_timesteps}  # fmt: skip
+    for name, content in ((ZOO_CONFIG, hyperparameters), (ZOO_ENV_KWARGS, env_kwargs),
+                          (ZOO_ARGS, arguments)):  # fmt: skip
+        (out / name).write_text(yaml.safe_dump(content, sort_keys=False))
+    with zipfile.ZipFile(out / ZOO_METRICS, "w") as metrics:
+        metrics.write(out / RESULTS, RESULTS)
 
 
 def evaluate(
@@ -180,24 +246,34 @@ def evaluate(
 
 def summarise(rows: list[dict], config: TrainConfig, masked: bool, seed: int) -> dict[str, Any]:
     """``results.json``: the hub's ``mean_reward``, ``std_reward``, ``is_deterministic``,
-    ``n_eval_episodes`` and ``eval_datetime``, then the mean and 95 % stratified-bootstrap
-    interval (episodes resampled within each world) of each of :data:`FIGURES` over all
-    episodes and per world, and the episodes."""
+    ``n_eval_episodes`` and ``eval_datetime``, then the mean and 95 % bootstrap interval of each
+    of :data:`FIGURES` over all episodes and per world (``low``/``high`` None for a single
+    episode), how the interval was drawn (``interval``: episodes resampled within each world
+    when every world has two or more, else across the worlds), and the episodes."""
     from nbv_gym.reporting.inference import stratified_interval
 
     rng = np.random.default_rng(seed)
     returns = np.array([row["return"] for row in rows])
+    worlds = list(dict.fromkeys(row["world"] for row in rows))
+    per_world = min(sum(row["world"] == w for row in rows) for w in worlds)
+    # Resampling within each world needs two episodes of it; with one, every resample is the
+    # sample itself and the interval a point, so the episodes are resampled across the worlds.
+    within = per_world >= 2
 
-    def intervals(selected: list[dict]) -> dict[str, dict[str, float]]:
-        found = {}
-        worlds = [row["world"] for row in selected]  # episodes resampled within each world
+    def intervals(selected: list[dict]) -> dict[str, dict[str, float | None]]:
+        found: dict[str, dict[str, float | None]] = {}
+        strata = [row["world"] if within else "all" for row in selected]
         for key in FIGURES:
             values = np.array([row[key] for row in selected])
-            interval = stratified_interval(values, worlds, np.mean, rng)
-            found[key] = {"mean": interval.mean, "low": interval.low, "high": interval.high}
+            interval = stratified_interval(values, strata, np.mean, rng)
+            bounded = len(selected) >= 2  # no interval of a single episode
+            found[key] = {
+                "mean": interval.mean,
+                "low": interval.low if bounded else None,
+                "high": interval.high if bounded else None,
+            }
         return found
 
-    worlds = list(dict.fromkeys(row["world"] for row in rows))
     return {
         "mean_reward": float(returns.mean()),
         "std_reward": float(returns.std()),
@@ -209,6 +285,12 @@ def summarise(rows: list[dict], config: TrainConfig, masked: bool, seed: int) ->
         "noise": config.noise,
         "max_steps": config.max_steps,
         "worlds": worlds,
+        "interval": (
+            "95 % bootstrap interval of the mean, episodes resampled within each world"
+            if within
+            else "95 % bootstrap interval of the mean, episodes resampled across the worlds "
+            "(fewer than 2 episodes of a world; none for a single episode)"
+        ),
         "overall": intervals(rows),
         "per_world": {w: intervals([r for r in rows if r["world"] == w]) for w in worlds},
         "episodes": rows,
@@ -217,8 +299,9 @@ def summarise(rows: list[dict], config: TrainConfig, masked: bool, seed: int) ->
 
 def metadata(config: TrainConfig, env_id: str, results: dict[str, Any]) -> dict[str, Any]:
     """The model card's metadata block, as the SB3 hub helpers write it (``library_name``,
-    ``tags`` with the env id, ``model-index`` with ``mean_reward`` as "mean +/- std"), with the
-    final Q and the discovered fraction and their intervals besides."""
+    ``tags`` with the env id, ``model-index`` whose dataset ``name`` and ``type`` are the env id,
+    with ``mean_reward`` as "mean +/- std"), with the final Q and the discovered fraction and
+    their intervals besides; the held-out worlds are the dataset's ``split``."""
     overall = results["overall"]
     metrics = [
         {
@@ -230,16 +313,17 @@ def metadata(config: TrainConfig, env_id: str, results: dict[str, Any]) -> dict[
     ]
     for key in ("q", "discovered"):
         m = overall[key]
+        interval = "" if m["low"] is None else f", 95% CI {m['low']:.4f} to {m['high']:.4f}"
         metrics.append(
             {
                 "type": key,
                 "value": round(m["mean"], 4),
                 "verified": False,
-                "name": f"{FIGURES[key]} (mean, 95% CI {m['low']:.4f} to {m['high']:.4f})",
+                "name": f"{FIGURES[key]} (mean{interval})",
             }
         )
     masking = "masked" if results["masked"] else "invalid goals snapped"
-    dataset = f"{env_id}, held-out worlds {', '.join(results['worlds'])} ({masking})"
+    split = f"held-out worlds {', '.join(results['worlds'])} ({masking})"
     return {
         "library_name": "stable-baselines3",
         "tags": [env_id, *TAGS],
@@ -252,7 +336,7 @@ def metadata(config: TrainConfig, env_id: str, results: dict[str, Any]) -> dict[
                             "type": "reinforcement-learning",
                             "name": "reinforcement-learning",
                         },
-                        "dataset": {"name": dataset, "type": env_id},
+                        "dataset": {"name": env_id, "type": env_id, "split": split},
                         "metrics": metrics,
                     }
                 ],
@@ -309,7 +393,7 @@ def _evaluation_section(results: dict[str, Any]) -> list[str]:
         f"Deterministic, {acting}, on the held-out worlds {', '.join(results['worlds'])}: task "
         f"`{results['task']}`, noise level {results['noise']}, {results['max_steps']} scans per "
         f"episode, {per_world} episode(s) per world ({results['n_eval_episodes']} in all), "
-        f"{results['eval_datetime']}. Means with their 95 % bootstrap intervals.",
+        f"{results['eval_datetime']}. Means with their {results['interval']}.",
         "",
         "| world | return | Q after the episode | discovered | path (m) |",
         "|---|---|---|---|---|",
@@ -344,6 +428,9 @@ def _usage_section() -> list[str]:
     ]
 
 
-def _table_row(label: str, figures: dict[str, dict[str, float]]) -> str:
-    cells = [f"{m['mean']:.4g} [{m['low']:.4g}, {m['high']:.4g}]" for m in figures.values()]
+def _table_row(label: str, figures: dict[str, dict[str, Any]]) -> str:
+    cells = [
+        f"{m['mean']:.4g}" + ("" if m["low"] is None else f" [{m['low']:.4g}, {m['high']:.4g}]")
+        for m in figures.values()
+    ]
     return f"| {label} | " + " | ".join(cells) + " |"

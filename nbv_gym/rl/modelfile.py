@@ -55,12 +55,16 @@ class ModelDescription:
     observation_space: Any
 
 
+#: Zips a packaged folder holds that are not models: rl-zoo3's archive of the run's metrics.
+NOT_MODELS = ("train_eval_metrics.zip",)
+
+
 def model_file(path: Path) -> Path:
     """``path``, or the one model zip in the folder ``path`` (a model packaged by
     ``nbv-gym package-model``); :class:`PolicyError` if the folder holds none or several."""
     if not path.is_dir():
         return path
-    zips = sorted(path.glob("*.zip"))
+    zips = sorted(z for z in path.glob("*.zip") if z.name not in NOT_MODELS)
     if len(zips) != 1:
         found = ", ".join(z.name for z in zips) or "none"
         raise PolicyError(

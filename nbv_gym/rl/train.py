@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import platform
+import time
 import warnings
 from functools import partial
 from pathlib import Path
@@ -22,6 +23,7 @@ from typing import Any
 
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import ClusterError, ConfigError, MissingExtraError
+from nbv_gym.core.progress import say
 from nbv_gym.rl.config import ALGORITHMS, TrainConfig
 from nbv_gym.rl.curve import EPISODES_CSV, plot_learning_curve
 from nbv_gym.rl.learner import prepare_learner
@@ -66,11 +68,27 @@ def train(
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     write_run_info(config, out)
+    started = time.perf_counter()
+    where = (
+        f"on {config.scheduler}"
+        if config.scheduler
+        else "in worker processes"
+        if config.n_envs > 1
+        else "here"
+    )
+    say(f"starting {config.n_envs} training environment(s) {where} (imports, the first worlds; "
+        "on a new install the kernels compile first)…")  # fmt: skip
     envs = make_vec_env(config)
+    if config.eval_every_steps:
+        say(f"starting the evaluation environment ({len(config.eval_worlds)} worlds)…")
     eval_env = make_eval_env(config) if config.eval_every_steps else None
     try:
+        say(f"{'loading' if resume else 'creating'} the {config.algorithm} model "
+            f"({time.perf_counter() - started:.0f} s so far)…")  # fmt: skip
         model = _load_or_create(config, envs, resume, verbose)
         model.set_logger(_logger(out, verbose))
+        say(f"training: the first update comes after {config.learning.n_steps * config.n_envs:,} "
+            "steps (n_steps · n_envs)")  # fmt: skip
         remaining = config.total_timesteps - model.num_timesteps
         if remaining <= 0:
             raise ConfigError(

@@ -300,7 +300,7 @@ def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> 
     ok = ok[~ok["policy"].map(is_oracle_label)]  # the paper's claims concern its policies
     levels = sorted(ok["noise"].unique())
     noise = FIG1_NOISE if FIG1_NOISE in levels else levels[0]
-    columns = ["asset", "u_occ", "cov_q", "l1", *STATISTICS]
+    columns = ["key", "asset", "u_occ", "cov_q", "l1", *STATISTICS]  # key: the run-level test
     cuboids = _read_cuboids(data.cuboids_path, [("noise", "=", int(noise))], columns)
     shares_path = out / "table2.csv"
     shares = _read_table2(shares_path) if shares_path.exists() else None
@@ -316,7 +316,7 @@ def _read_table2(path: Path):
 def _fig1_lines(ok, data: Results, out: Path) -> list[str]:
     levels = sorted(ok["noise"].unique())
     noise = FIG1_NOISE if FIG1_NOISE in levels else levels[0]
-    columns = ["asset", "u_occ", "cov_q", "l1", *STATISTICS]
+    columns = ["key", "asset", "u_occ", "cov_q", "l1", *STATISTICS]  # key: the run-level test
     cuboids = _read_cuboids(data.cuboids_path, [("noise", "=", int(noise))], columns)
     if cuboids is None:
         return ["", "No per-cuboid table (`cuboids.parquet`): Fig. 1 skipped."]

@@ -15,6 +15,7 @@ from nbv_gym.benchmark.leaderboard import (
     build_leaderboard,
     gather,
     improvement,
+    leaderboard_summary,
     pareto_dominated,
     ranked,
 )
@@ -106,7 +107,8 @@ def test_entries_rank_by_test_iqm_with_oracles_apart(tiny_suite, tmp_path):
 def test_leaderboard_writes_markdown_html_and_profiles(tiny_suite, tmp_path):
     paths = [write(tmp_path, card(tiny_suite, n, q)) for n, q in (("a", 0.3), ("b", 0.5))]
     paths.append(write(tmp_path, card(tiny_suite, "peek:Oracle", 0.9, oracle=True)))
-    markdown, html = build_leaderboard(paths, False, tmp_path / "board")
+    board = build_leaderboard(paths, False, tmp_path / "board")
+    markdown, html = board.markdown, board.html
     text = markdown.read_text()
     assert text.index("| 1 | **`b`**") < text.index("| 2 | **`a`**")
     assert "## Oracles (ranked apart)" in text and "| oracle | **`peek:Oracle`**" in text
@@ -209,10 +211,75 @@ def test_stale_references_are_left_out_and_named_pending(tiny_suite, tmp_path, m
 def test_leaderboard_of_the_shipped_references_lists_every_one(tmp_path):
     from nbv_gym.benchmark.references import reference_path, shipped_policies
 
-    markdown, _ = build_leaderboard([], True, tmp_path)
-    text = markdown.read_text()
+    text = build_leaderboard([], True, tmp_path).markdown.read_text()
     entries = gather([], references=True)
     shipped = {n for n in shipped_policies() if reference_path(n).is_file()}
     assert {e.label for e in entries} == shipped and len(shipped) >= 2
     assert all(f"`{e.label}`" in text for e in entries)
     assert "(baseline)" in text and "the best reference" in text
+
+
+def test_the_summary_ranks_like_the_table_marks_given_scorecards_and_puts_oracles_last(
+    tiny_suite, tmp_path, monkeypatch
+):
+    """The plain-text ranking that ``nbv-gym leaderboard`` prints: one line per entry in rank
+    order, oracles last, ``*`` on the scorecards given on the command line."""
+    import nbv_gym.benchmark.references as references
+
+    monkeypatch.setattr(references, "REFERENCE_DIR", tmp_path / "references")
+    (tmp_path / "references" / "tiny").mkdir(parents=True)
+    for name, q in (("closest-frontier", 0.5), ("oracle-greedy", 0.9)):
+        reference = card(tiny_suite, name, q, oracle=name == "oracle-greedy")
+        (tmp_path / "references" / "tiny" / f"{name}.json").write_text(dumps_strict(reference))
+    mine = write(tmp_path, card(tiny_suite, "mine", 0.3))
+    lines = leaderboard_summary(gather([mine], references=True)).splitlines()
+    assert lines[0].split()[:2] == ["rank", "policy"] and set(lines[1]) == {"-", " "}
+    assert [line.split()[:2] for line in lines[2:5]] == [
+        ["1", "closest-frontier"], ["2", "mine"], ["oracle", "oracle-greedy"]
+    ]  # fmt: skip
+    assert lines[3].split()[2] == "*" and "(baseline)" in lines[2]
+    assert "0.00 [0.00, 0.00]" in lines[3]  # every run of mine loses to closest-frontier's
+    assert lines[-1].startswith("* given on the command line")
+
+
+def test_references_of_a_scorecards_suite_are_found_by_adding_its_folder(
+    tiny_suite, tmp_path, monkeypatch
+):
+    """--references adds the references of the given scorecard's suite: with no folder for it,
+    a one-line refusal naming the suites that have references; with the folder
+    ``references/<suite>/`` holding scorecards of shipped policies, they join the board."""
+    import nbv_gym.benchmark.references as references
+
+    monkeypatch.setattr(references, "REFERENCE_DIR", tmp_path / "references")
+    (tmp_path / "references" / "standard").mkdir(parents=True)
+    standard = tmp_path / "references" / "standard" / "closest-frontier.json"
+    standard.write_text(
+        dumps_strict(card(replace(tiny_suite, name="standard"), "closest-frontier", 0.5))
+    )
+    mine = write(tmp_path, card(tiny_suite, "mine", 0.3))
+    with pytest.raises(
+        LeaderboardError, match=r"No reference scorecards of the 'tiny' suite"
+    ) as error:
+        gather([mine], references=True)
+    assert "suites with references: standard" in str(error.value)
+    (tmp_path / "references" / "tiny").mkdir()
+    for name, q in (("random-free", 0.4), ("nbv-sigma", 0.6)):
+        path = tmp_path / "references" / "tiny" / f"{name}.json"
+        path.write_text(dumps_strict(card(tiny_suite, name, q)))
+    entries = gather([mine], references=True)
+    assert [e.label for e in entries] == ["random-free", "nbv-sigma", "mine"]  # shipped order
+    assert [e.reference for e in entries] == [True, True, False]
+    assert baseline(entries).label == "nbv-sigma"
+    assert [e.label for e in gather([], references=True)] == ["closest-frontier"]  # standard
+
+
+def test_the_cli_prints_the_ranking(tiny_suite, tmp_path):
+    paths = [write(tmp_path, card(tiny_suite, n, q)) for n, q in (("a", 0.3), ("b", 0.5))]
+    result = subprocess.run(
+        [sys.executable, "-m", "nbv_gym", "leaderboard", *map(str, paths), "--out", str(tmp_path / "o")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    ranking = [line.split()[:2] for line in result.stdout.splitlines()[2:4]]
+    assert ranking == [["1", "b"], ["2", "a"]]
+    assert result.stdout.splitlines()[-1].startswith("leaderboard: ")

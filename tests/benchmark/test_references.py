@@ -18,6 +18,7 @@ from nbv_gym.benchmark.references import (
     REFERENCE_SUITE,
     load_references,
     reference_path,
+    reference_suites,
     references_pending,
     shipped_policies,
 )
@@ -29,7 +30,7 @@ from nbv_gym.benchmark.scorecard import (
     load_scorecard,
     policy_file,
 )
-from nbv_gym.benchmark.suites import PROTOCOL_VERSION
+from nbv_gym.benchmark.suites import PROTOCOL_VERSION, get_suite
 
 
 def close(a, b, rel: float = 1e-9) -> bool:
@@ -54,53 +55,64 @@ STALE = pytest.mark.xfail(
     reason=f"the references of protocol version {PROTOCOL_VERSION} are pending; {REGENERATE}",
     strict=True,
 )
+#: Every suite that has references (the standard suite's always ship), by every shipped policy.
+SUITES = reference_suites()
+CASES = [(suite, name) for suite in SUITES for name in SHIPPED]
 
 
-def stored(name: str) -> dict:
-    """The reference scorecard of ``name``; the test is skipped when there is none (the test
-    above names every missing one)."""
-    if not reference_path(name).is_file():
-        pytest.skip(f"no reference scorecard of {name}")
-    return load_scorecard(reference_path(name))
+def stored(name: str, suite: str = REFERENCE_SUITE.name) -> dict:
+    """The reference scorecard of ``name`` on ``suite``; the test is skipped when there is none
+    (the test below names every missing one)."""
+    if not reference_path(name, suite).is_file():
+        pytest.skip(f"no reference scorecard of {name} on the {suite} suite")
+    return load_scorecard(reference_path(name, suite))
 
 
-def test_every_shipped_policy_has_a_reference_unless_pending_and_nothing_else_does():
-    files = {p.stem for p in REFERENCE_DIR.glob("*.json")}
+def test_the_standard_suite_has_references_and_every_folder_is_a_suite():
+    assert REFERENCE_SUITE.name in SUITES
+    folders = {p.name for p in REFERENCE_DIR.iterdir() if p.is_dir() and p.name != "__pycache__"}
+    assert folders <= set(SUITES), f"reference folders of no suite: {folders - set(SUITES)}"
+    assert not list(REFERENCE_DIR.glob("*.json")), "a reference outside its suite's folder"
+
+
+@pytest.mark.parametrize("suite", SUITES)
+def test_every_shipped_policy_has_a_reference_unless_pending_and_nothing_else_does(suite):
+    files = {p.stem for p in (REFERENCE_DIR / suite).glob("*.json")}
     missing = sorted(set(SHIPPED) - files - set(PENDING))
     unknown = sorted(files - set(SHIPPED))
     assert not missing and not unknown, (
-        f"no reference of {missing}, a reference of no shipped policy {unknown}: {REGENERATE} "
-        f"{' '.join(missing)} (and delete the others)"
+        f"no {suite} reference of {missing}, a reference of no shipped policy {unknown}: "
+        f"{REGENERATE} --suite {suite} {' '.join(missing)} (and delete the others)"
     )
     assert set(PENDING) <= set(SHIPPED) and not files & set(PENDING), (
         "a pending reference exists or names no shipped policy: update PENDING"
     )
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize(("suite", "name"), CASES)
 @STALE
-def test_reference_belongs_to_the_current_suite_protocol_and_policy_code(name):
-    card = stored(name)
-    assert card["suite"]["name"] == REFERENCE_SUITE.name
-    assert card["suite"]["hash"] == REFERENCE_SUITE.content_hash(), (
-        f"the standard suite changed since {name}'s reference was scored; {REGENERATE}"
+def test_reference_belongs_to_the_current_suite_protocol_and_policy_code(suite, name):
+    card = stored(name, suite)
+    assert card["suite"]["name"] == suite
+    assert card["suite"]["hash"] == get_suite(suite).content_hash(), (
+        f"the {suite} suite changed since {name}'s reference was scored; {REGENERATE}"
     )
     assert card["protocol_version"] == PROTOCOL_VERSION, REGENERATE
     assert card["policy"]["name"] == name and card["policy"]["oracle"] in (True, False)
     assert card["policy"]["code_hash"] == file_hash(policy_file(name)), (
         f"{policy_file(name).name} changed since {name}'s reference was scored; {REGENERATE}"
     )
-    assert len(card["runs"]) == REFERENCE_SUITE.runs
+    assert len(card["runs"]) == get_suite(suite).runs
 
 
-@pytest.mark.parametrize("name", SHIPPED)
+@pytest.mark.parametrize(("suite", "name"), CASES)
 @STALE
-def test_reference_validates_and_its_aggregates_follow_from_its_runs(name):
+def test_reference_validates_and_its_aggregates_follow_from_its_runs(suite, name):
     import jsonschema
 
-    card = stored(name)
+    card = stored(name, suite)
     jsonschema.validate(card, json.loads(SCHEMA_PATH.read_text()))
-    for part in REFERENCE_SUITE.parts:
+    for part in get_suite(suite).parts:
         again = json.loads(dumps_strict(aggregate(card["runs"], part.split, part.metric)))
         assert close(again, card["aggregates"][part.split]), (
             f"the aggregation or statistics code changed; {REGENERATE}"
@@ -146,7 +158,8 @@ def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, 
     )
 
 
-def test_load_references_follows_the_shipped_order():
-    assert [c["policy"]["name"] for c in load_references()] == [
-        n for n in SHIPPED if reference_path(n).is_file()
+@pytest.mark.parametrize("suite", SUITES)
+def test_load_references_follows_the_shipped_order(suite):
+    assert [c["policy"]["name"] for c in load_references(suite)] == [
+        n for n in SHIPPED if reference_path(n, suite).is_file()
     ]

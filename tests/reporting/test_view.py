@@ -81,6 +81,24 @@ def test_html_page_loads_plotly_from_its_cdn_or_inlines_it_offline(run_folder):
     assert len(offline) - len(page) > 3_000_000
 
 
+def test_page_without_network_says_why_it_is_blank_and_how_to_write_one_that_needs_none(run_folder):
+    """Opened without a network, the CDN page's plotly.js does not load: a message stands in the
+    figure's place (shown unless a script after the library finds Plotly defined); an offline page, whose
+    library is inside it, carries no message."""
+    scene = load_scene(run_folder, max_points=300)
+    page = write_view(scene, run_folder / "view.html").read_text()
+    message = page.index('id="nbv-gym-no-plotly"')
+    # first in the page (the figure's empty full-height box would push it out of sight) …
+    assert page.index("<body>") < message < page.index('src="https://cdn.plot.ly/plotly-')
+    assert "nbv-gym view RUN_DIR --offline" in page[message:]
+    # … and hidden by a script after the library's, only when the library is there
+    check = page.index('typeof Plotly !== "undefined"')
+    assert page.index('src="https://cdn.plot.ly/plotly-') < check < page.index("</body>")
+    assert "display: none" not in page[message : page.index("</div>", message)]  # shown by default
+    offline = write_view(scene, run_folder / "offline.html", offline=True).read_text()
+    assert "nbv-gym-no-plotly" not in offline
+
+
 def test_missing_map_is_explained(tmp_path):
     with pytest.raises(ViewError, match="no such map; give a run folder"):
         load_scene(tmp_path)

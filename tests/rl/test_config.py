@@ -64,3 +64,16 @@ def test_bad_values_are_refused_with_their_key(tmp_path, text, match):
 def test_missing_file_is_named(tmp_path):
     with pytest.raises(ConfigError, match="does not exist"):
         load_train_config(tmp_path / "nope.toml")
+
+
+def test_a_dotted_override_sets_a_key_of_a_table_so_one_env_can_train():
+    """``nbv-gym train --n-envs 1`` is refused by the shipped batch size (256 > 128 · 1), and the
+    refusal names the flag that lowers it; ``--batch-size`` reaches ``learning.batch_size``."""
+    shipped = config_file("ppo", "train")
+    with pytest.raises(ConfigError, match=r"lower it \(nbv-gym train --batch-size 128\)"):
+        load_train_config(shipped, {"n_envs": 1})
+    config = load_train_config(shipped, {"n_envs": 1, "learning.batch_size": 128})
+    assert config.n_envs == 1 and config.learning.batch_size == 128
+    assert config.learning.n_steps == 128  # the table's other keys stay the file's
+    with pytest.raises(ConfigError, match="batch_sise"):
+        load_train_config(shipped, {"learning.batch_sise": 128})

@@ -21,7 +21,7 @@ from nbv_gym.episode import run_episode  # noqa: E402
 from nbv_gym.policies import PolicyError, load_policy  # noqa: E402
 from nbv_gym.policies.registry import model_path  # noqa: E402
 from nbv_gym.rl.config import LearningConfig, TrainConfig  # noqa: E402
-from nbv_gym.rl.hub import find_source  # noqa: E402
+from nbv_gym.rl.hub import find_source, summarise  # noqa: E402
 from nbv_gym.rl.train import train  # noqa: E402
 
 BUDGET = 4
@@ -47,10 +47,46 @@ def packaged(world, tmp_path_factory):
     return SimpleNamespace(out=out, meta=yaml.safe_load(front), body=body, results=results)
 
 
+MODEL_ZIP = "ppo_mask-nbv_gym-ExploreBudget-v0.zip"  # rl-zoo3's <algo>-<env id, / as ->.zip
+
+
 def test_the_folder_holds_the_hub_files(packaged):
     names = {p.name for p in packaged.out.iterdir()}
     assert names == {"README.md", "config.toml", "results.json", "replay.gif",
-                     "learning_curve.png", "maskableppo-ExploreBudget-v0.zip"}  # fmt: skip
+                     "learning_curve.png", MODEL_ZIP, "config.yml", "env_kwargs.yml", "args.yml",
+                     "train_eval_metrics.zip"}  # fmt: skip
+
+
+def test_rl_zoo3_downloads_the_folder_as_a_run_that_loads_and_plays(
+    packaged, tmp_path, monkeypatch
+):
+    """rl-zoo3's own hub tooling: ``download_from_hub`` (its Hub download pointed at the folder)
+    finds every file it needs and lays them out as an rl-zoo3 run; rl-zoo3 reads the saved
+    hyper-parameters, and the model of that run plays the environment its ``env_kwargs.yml``
+    describes. (rl-zoo3's ``enjoy`` has no MaskablePPO; the run plays through ``sb3:``.)"""
+    import gymnasium
+
+    rl_zoo3_hub = pytest.importorskip("rl_zoo3.load_from_hub")
+    from rl_zoo3.utils import get_saved_hyperparams
+
+    def load_from_hub(repo_id: str, filename: str) -> str:  # the Hub's download, from the folder
+        if not (packaged.out / filename).is_file():
+            raise rl_zoo3_hub.HTTPError(f"404: {filename}")
+        return str(packaged.out / filename)
+
+    monkeypatch.setattr(rl_zoo3_hub, "load_from_hub", load_from_hub)
+    env_name = rl_zoo3_hub.EnvironmentName(BUDGET_ID)
+    rl_zoo3_hub.download_from_hub("ppo_mask", env_name, 1, str(tmp_path / "logs"), "someone")
+    run = tmp_path / "logs" / "ppo_mask" / f"{env_name}_1"
+    hyperparameters, _ = get_saved_hyperparams(str(run / env_name))
+    assert hyperparameters["normalize"] is False and hyperparameters["n_steps"] == 16
+    assert hyperparameters["policy"] == "nbv_gym.rl.extractor.MaskableGoalMapPolicy"
+    assert (run / "results.json").is_file()  # the metrics archive, unpacked
+    env_kwargs = yaml.safe_load((run / env_name / "env_kwargs.yml").read_text())
+    assert env_kwargs["max_steps"] == BUDGET and env_kwargs["invalid_action"] == "snap"
+    env = gymnasium.make(BUDGET_ID, **env_kwargs)
+    result = run_episode(env.unwrapped, load_policy(f"sb3:{run / f'{env_name}.zip'}"), 3)
+    assert len(result.steps) == BUDGET + 1
 
 
 def test_the_model_card_has_the_sb3_hub_metadata_with_the_masked_evaluation(packaged):
@@ -59,8 +95,9 @@ def test_the_model_card_has_the_sb3_hub_metadata_with_the_masked_evaluation(pack
     assert {BUDGET_ID, "stable-baselines3", "reinforcement-learning"} <= set(meta["tags"])
     (entry,) = meta["model-index"]
     (result,) = entry["results"]
-    assert entry["name"] == "MaskablePPO" and result["dataset"]["type"] == BUDGET_ID
-    assert "(masked)" in result["dataset"]["name"] and results["masked"] is True
+    assert entry["name"] == "MaskablePPO"
+    assert result["dataset"]["name"] == result["dataset"]["type"] == BUDGET_ID
+    assert "(masked)" in result["dataset"]["split"] and results["masked"] is True
     metrics = {m["type"]: m for m in result["metrics"]}
     mean, std = results["mean_reward"], results["std_reward"]
     assert metrics["mean_reward"]["value"] == f"{mean:.2f} +/- {std:.2f}"
@@ -91,10 +128,10 @@ def test_the_folder_loads_back_as_a_policy_and_runs_an_episode(packaged, world):
 
 def test_a_folder_with_two_models_is_refused(packaged, tmp_path):
     shutil.copytree(packaged.out, tmp_path / "two")
-    shutil.copyfile(
-        tmp_path / "two" / "maskableppo-ExploreBudget-v0.zip", tmp_path / "two" / "b.zip"
-    )
-    with pytest.raises(PolicyError, match=r"expected one model \.zip in it .* found b\.zip, mask"):
+    shutil.copyfile(tmp_path / "two" / MODEL_ZIP, tmp_path / "two" / "b.zip")
+    with pytest.raises(
+        PolicyError, match=r"expected one model \.zip in it .* found b\.zip, ppo_mask"
+    ):
         load_policy(f"sb3:{tmp_path / 'two'}")
 
 
@@ -108,3 +145,20 @@ def test_a_run_folder_without_its_config_is_refused(tmp_path):
     (tmp_path / "final_model.zip").write_bytes(b"")
     with pytest.raises(PolicyError, match=r"training config .*config\.toml' is missing"):
         find_source(tmp_path)
+
+
+def test_one_episode_per_world_gets_a_real_interval_and_a_single_episode_none():
+    """Resampled within each world, one episode per world gives the point [m, m]; the episodes
+    are then resampled across the worlds (the interval of a plain bootstrap of the mean). A
+    world of one episode has no interval."""
+    config = TrainConfig(eval_worlds=("a", "b", "c", "d"))
+    returns = {"a": 1.0, "b": 2.0, "c": 4.0, "d": 8.0}
+    rows = [{"world": w, "seed": 0, "return": r, "q": r / 100, "discovered": 0.5,
+             "path_length_m": 10.0 * r} for w, r in returns.items()]  # fmt: skip
+    results = summarise(rows, config, masked=True, seed=0)
+    q = results["overall"]["q"]
+    assert q["mean"] == pytest.approx(0.0375)
+    # every resample is 4 draws from {0.01, 0.02, 0.04, 0.08}: the extremes bound the interval
+    assert 0.01 <= q["low"] < q["mean"] < q["high"] <= 0.08
+    assert "across the worlds" in results["interval"]
+    assert results["per_world"]["a"]["q"] == {"mean": 0.01, "low": None, "high": None}

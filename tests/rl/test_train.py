@@ -82,7 +82,7 @@ def test_default_network_model_file_is_small_and_keeps_no_observations(cli_run):
     assert path.stat().st_size <= MAX_MODEL_BYTES
 
 
-def test_time_limit_stops_training_and_still_saves(world, tmp_path):
+def test_time_limit_stops_training_and_still_saves(world, tmp_path, caplog):
     config = TrainConfig(
         total_timesteps=1_000,
         n_envs=1,
@@ -93,9 +93,15 @@ def test_time_limit_stops_training_and_still_saves(world, tmp_path):
         checkpoint_every_steps=0,
         eval_every_steps=0,
     )
-    model = train(config, tmp_path, progress_bar=False, time_limit_s=0.0)
+    with caplog.at_level("INFO", logger="nbv_gym"):
+        model = train(config, tmp_path, progress_bar=False, time_limit_s=0.0)
     assert model.num_timesteps == 1  # the first step's callback stops it
     assert (tmp_path / "final_model.zip").exists() and (tmp_path / "learning_curve.png").exists()
+    # the start, silent for a minute or more before, says what it does
+    said = [r.getMessage() for r in caplog.records if r.name == "nbv_gym"]
+    assert any(m.startswith("starting 1 training environment(s) here") for m in said), said
+    assert any(m.startswith("creating the MaskablePPO model") for m in said)
+    assert any(m.startswith("training: the first update comes after 16 steps") for m in said)
 
 
 @pytest.mark.skipif(th.cuda.is_available(), reason="this machine has a CUDA device")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from nbv_gym.reporting.verdicts import NOT_REPRODUCED
 from nbv_gym.sweep.verdict import (
@@ -63,7 +64,9 @@ def test_table2_rows_compare_with_the_paper():
     assert rows["Table II: n_obs indicates l1"] == NOT_REPRODUCED  # 0.90 → 0.50
     assert rows["Table II: r_min indicates cov"] == NOT_REPRODUCED  # 0.89 → 0.50
     assert rows["Table II: n_omega indicates cov"] == "reproduced"  # 0.04 below
-    assert rows["Table II: sigma_theta indicates l1"] == "no data"  # not legible in the paper
+    assert rows["Table II: sigma_theta indicates l1"] == "no paper value"  # not legible there
+    missing = table2_rows(shares.drop(index="r_min"))
+    assert {r["claim"]: r["verdict"] for r in missing}["Table II: r_min indicates cov"] == "no data"
 
 
 def _sweep(slopes: dict[tuple[str, str], list[float]]):
@@ -187,3 +190,45 @@ def test_each_visibility_model_gets_its_own_verdict_and_power_note(tmp_path):
         and "smallest p a one-sided Wilcoxon test can give is 0.25" in (text)
     )
     assert (tmp_path / "verdict.csv").exists()
+
+
+def test_fig1_trends_add_a_run_level_test_beside_the_cuboid_level_one():
+    """Cuboids of 6 runs per asset type, each run a perfect trend: the pooled (cuboid-level)
+    test gives p < 1e-16, the run-level one (the runs' ρ, Wilcoxon) only what 6 runs can give
+    (two-sided exact: 2/64 = 0.031). The verdict follows the cuboid-level test."""
+    from nbv_gym.sweep.verdict import run_level_p
+
+    frames = []
+    for asset in ASSET_TYPES:
+        for run in range(6):
+            frames.append(_cuboids(asset, 1).assign(key=f"{asset}/{run}"))
+    cuboids = pd.concat(frames)
+    row = {r["claim"]: r for r in trend_rows(cuboids)}["Fig. 1: cov rises with n_obs"]
+    assert row["verdict"] == "reproduced"
+    assert row["p"] == "cuboids: largest < 1e-16; runs: largest 0.0312"
+    assert "cuboid-level" in row["test"] and "run-level" in row["test"]
+    assert row["n"].endswith(", 24 runs")
+    one = cuboids[cuboids["asset"] == ASSET_TYPES[0]]
+    assert run_level_p(one[one["u_occ"]], "n_obs", "cov_q") == pytest.approx(2 / 64)
+
+
+def test_the_verdict_tables_say_a_shared_description_once():
+    """Rows of one test that share the paper's statement and the test show them once above
+    their table, not on every row; a column that varies stays in the table."""
+    from nbv_gym.sweep.verdict import COLUMNS, verdict_tables
+
+    rows = [
+        {"claim": f"Fig. 1: c{i}", "paper": "same claim", "n": "3", "test": "test A", "p": "0.1",
+         "effect": "—", "ours": "—", "verdict": "not", "model": "—"}
+        for i in range(3)
+    ] + [
+        {"claim": f"Table II: d{i}", "paper": f"paper {i}", "n": "3", "test": "test B", "p": "0.2",
+         "effect": "—", "ours": "—", "verdict": "not", "model": "—"}
+        for i in range(2)
+    ]  # fmt: skip
+    text = "\n".join(verdict_tables(pd.DataFrame(rows, columns=COLUMNS)))
+    assert text.count("same claim") == 1 and text.count("test A") == 1
+    assert text.count("test B") == 1 and "paper 0" in text and "paper 1" in text
+    assert "**Fig. 1** — paper: same claim — test: test A" in text
+    assert "| claim | n | p | verdict |" in text  # test A's table: effect and ours all "—"
+    assert "| claim | paper | n | p | verdict |" in text  # test B's

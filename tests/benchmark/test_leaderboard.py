@@ -21,6 +21,7 @@ from nbv_gym.benchmark.leaderboard import (
 )
 from nbv_gym.benchmark.references import references_pending
 from nbv_gym.benchmark.scorecard import build_scorecard, dumps_strict
+from nbv_gym.benchmark.suites import STANDARD
 
 
 def card(
@@ -177,7 +178,7 @@ def test_the_board_ranks_by_the_time_task_marks_the_pareto_front_and_draws_q_t(
     entries = gather(paths, references=False)
     assert [e.metric() for e in entries] == ["q_time_auc"] * 3
     assert pareto_dominated(entries) == {"worse": "near"}
-    markdown, _ = build_leaderboard(paths, False, tmp_path / "board")
+    markdown = build_leaderboard(paths, False, tmp_path / "board").markdown
     text = markdown.read_text()
     assert (
         text.index("| 1 | **`far`**")
@@ -193,11 +194,11 @@ def test_stale_references_are_left_out_and_named_pending(tiny_suite, tmp_path, m
     import nbv_gym.benchmark.references as references
 
     old = card(tiny_suite, "old-reference", 0.9, version=1)
-    monkeypatch.setattr(references, "load_references", lambda: [old])
+    monkeypatch.setattr(references, "load_references", lambda suite: [old])
     with pytest.raises(LeaderboardError, match=r"References for protocol version 2 .* pending"):
         gather([], references=True)
     mine = write(tmp_path, card(tiny_suite, "mine", 0.3))
-    markdown, _ = build_leaderboard([mine], True, tmp_path / "board")
+    markdown = build_leaderboard([mine], True, tmp_path / "board").markdown
     text = markdown.read_text()
     assert "are pending" in text and "old-reference" in text  # named, not ranked
     assert "| 1 | **`mine`**" in text and "| 2 |" not in text
@@ -253,9 +254,7 @@ def test_references_of_a_scorecards_suite_are_found_by_adding_its_folder(
     monkeypatch.setattr(references, "REFERENCE_DIR", tmp_path / "references")
     (tmp_path / "references" / "standard").mkdir(parents=True)
     standard = tmp_path / "references" / "standard" / "closest-frontier.json"
-    standard.write_text(
-        dumps_strict(card(replace(tiny_suite, name="standard"), "closest-frontier", 0.5))
-    )
+    standard.write_text(dumps_strict(card(STANDARD, "closest-frontier", 0.5)))
     mine = write(tmp_path, card(tiny_suite, "mine", 0.3))
     with pytest.raises(
         LeaderboardError, match=r"No reference scorecards of the 'tiny' suite"

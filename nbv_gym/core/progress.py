@@ -29,13 +29,18 @@ def say(message: str) -> None:
     LOGGER.info(message)
 
 
+class _PhaseHandler(logging.StreamHandler):
+    """The stderr handler :func:`speak_on_stderr` adds once (its ``nbv_gym`` mark tells it apart)."""
+
+    nbv_gym = True
+
+
 def speak_on_stderr() -> None:
     """Show the phase messages on stderr, in this process and the worker processes it starts."""
     os.environ[SPEAK_VARIABLE] = "1"
     if not any(getattr(h, "nbv_gym", False) for h in LOGGER.handlers):
-        handler = logging.StreamHandler(sys.stderr)
+        handler = _PhaseHandler(sys.stderr)
         handler.setFormatter(logging.Formatter("%(message)s"))
-        handler.nbv_gym = True
         LOGGER.addHandler(handler)
     LOGGER.setLevel(logging.INFO)
 

@@ -32,7 +32,13 @@ from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
 from nbv_gym.nbv import NbvConfig
-from nbv_gym.simulator import Simulator, SimulatorConfig, StepOutcome, goal_index
+from nbv_gym.simulator import (
+    ResetNeededError,
+    Simulator,
+    SimulatorConfig,
+    StepOutcome,
+    goal_index,
+)
 from nbv_gym.worlds.distribution import POOL_SIZE, WorldDistribution, is_distribution
 
 
@@ -192,7 +198,7 @@ class ExploreEnv(gymnasium.Env):
             )
         super().reset(seed=seed)
         if self.worlds is not None and self._world_episodes % self.config.episodes_per_world == 0:
-            self._draw_world()
+            self._draw_world(self.worlds)
         self._world_episodes += 1
         episode_seed = int(self.np_random.integers(2**63 - 1))
         self._last = self.sim.reset(episode_seed)
@@ -227,11 +233,11 @@ class ExploreEnv(gymnasium.Env):
             return render_rgb(self.sim)
         return None
 
-    def _draw_world(self) -> None:
+    def _draw_world(self, worlds: WorldDistribution) -> None:
         """Switch to a world drawn from the distribution's pool (kept if drawn again)."""
-        index = self.worlds.draw(self.np_random)
+        index = worlds.draw(self.np_random)
         if index != self._world_index:
-            self.sim.set_world(self.worlds.world(index))
+            self.sim.set_world(worlds.world(index))
             self._world_index = index
 
     def _current_mask(self) -> np.ndarray | None:
@@ -242,15 +248,22 @@ class ExploreEnv(gymnasium.Env):
         stable = mask & self._start_mask
         return stable if stable.any() else mask
 
+    @property
+    def _outcome(self) -> StepOutcome:
+        """The last step's outcome; :class:`ResetNeededError` before a reset."""
+        if self._last is None:
+            raise ResetNeededError("Call reset() first.")
+        return self._last
+
     def _observation(self) -> dict[str, np.ndarray]:
         sim = self.sim
-        optional = self.optional.compute(self._last)
+        optional = self.optional.compute(self._outcome)
         return self.observer.observe(
             sim.navigation, sim.statistics, sim.pose, sim.steps, optional, sim.elapsed_s
         )
 
     def _info(self) -> dict[str, Any]:
-        outcome, sim = self._last, self.sim
+        outcome, sim = self._outcome, self.sim
         quality = outcome.quality
         return {
             "action_mask": sim.goal_mask().astype(np.int8),

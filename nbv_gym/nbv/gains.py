@@ -187,7 +187,8 @@ def realised_gains(
     cells whose n_obs grew.
     """
     sensor = sensor or NbvSensor.default()
-    b, a = cell_table(*before, config, sensor), cell_table(*after, config, sensor)
+    (n0, r0, s0, u0), (n1, r1, s1, u1) = before, after
+    b, a = cell_table(n0, r0, s0, u0, config, sensor), cell_table(n1, r1, s1, u1, config, sensor)
     floor = config.gain_floor
     n_b, n_a = b[:, _N_NEXT] - 1.0, a[:, _N_NEXT] - 1.0
     grew = n_a > n_b

@@ -67,7 +67,7 @@ def policy_colours(policies: list[str]) -> dict[str, Any]:
     """A fixed colour per policy (the paper's seven first)."""
     import matplotlib
 
-    palette = matplotlib.colormaps["tab10"].colors
+    palette = matplotlib.color_sequences["tab10"]
     ordered = [*PAPER_POLICIES, *(p for p in policies if p not in PAPER_POLICIES)]
     return {p: palette[ordered.index(p) % len(palette)] for p in policies}
 

@@ -170,7 +170,8 @@ class LeanSubprocVecEnv(ProtocolVecEnv):
         start_method: str = "forkserver",
         prefetch: Sequence[str] = (),
     ):
-        context = multiprocessing.get_context(start_method)
+        # typeshed's BaseContext lacks the Process that every start method's context has
+        context: Any = multiprocessing.get_context(start_method)
         self.remotes, self.processes = [], []
         for env_fn in env_fns:
             remote, work_remote = context.Pipe()

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -66,17 +67,18 @@ def make_run(world: str, noise: int, policy: str, seed: int, max_steps: int, out
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import load_policy
+    from nbv_gym.sensor.lidar import Lidar
     from nbv_gym.simulator import SimulatorConfig
 
     agent = load_policy(policy)
     episode = EpisodeConfig(max_steps=max_steps, discovered_target=1.0)
     env = make_env(EnvConfig(SimulatorConfig(world=world, noise=noise, episode=episode)), agent)
     log = ScanLog(env.sim.lidar)
-    env.sim.lidar = log
+    env.sim.lidar = cast(Lidar, log)  # a ScanLog scans like the lidar it wraps
     result = run_episode(env, agent, seed)
     meta = {"world": world, "policy": policy, "noise": noise, "seed": seed}
     write_run_folder(out, env, result, meta)
-    log.save(out / SCANS_NAME, env.sim.state.occupancy)
+    log.save(out / SCANS_NAME, env.sim.occupancy)
     return out
 
 

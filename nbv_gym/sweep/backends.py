@@ -16,8 +16,9 @@ import os
 import time
 import traceback
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as connection_wait
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 from nbv_gym.core.cluster import connect, describe
 from nbv_gym.core.processes import worker_environment
@@ -63,7 +64,7 @@ def make_backend(workers: int | None, scheduler: str | None, run_timeout_s: floa
     workers = (os.cpu_count() or 1) if workers is None else workers
     if workers < 1:
         raise SweepError(f"--workers must be ≥ 1, got {workers}")
-    if check_scheduler(scheduler) is not None:
+    if scheduler is not None and check_scheduler(scheduler) is not None:
         return DaskBackend(scheduler, workers, run_timeout_s)
     return PoolBackend(workers, run_timeout_s)
 
@@ -108,11 +109,14 @@ class PoolBackend:
         self.run_timeout_s = run_timeout_s
         self.description = f"local process pool of {workers} worker(s)"
         methods = multiprocessing.get_all_start_methods()
-        self._context = multiprocessing.get_context(
-            "forkserver" if "forkserver" in methods else "spawn"
+        self._context = (
+            multiprocessing.get_context("forkserver")
+            if "forkserver" in methods
+            else multiprocessing.get_context("spawn")
         )
         self._slots: list[_Slot] = []
-        self._alive = None  # (read end, write end) of the pipe that tells workers we live
+        # (read end, write end) of the pipe that tells workers we live
+        self._alive: tuple[Connection, Connection] | None = None
         self._environment = worker_environment()
         self._environment.__enter__()
 
@@ -131,20 +135,20 @@ class PoolBackend:
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
         while True:
-            busy = [slot for slot in self._slots if slot.task is not None]
+            busy = [slot for slot in self._slots if slot.task is not None]  # each holds a task
             ends = {s: s.started + self.run_timeout_s for s in busy if s.started is not None}
             now = time.monotonic()
             late = [slot for slot, end in ends.items() if end <= now]
             if late:
                 self._stop(late[0])
-                return late[0].task, timed_out(self.run_timeout_s)
+                return cast(RunTask, late[0].task), timed_out(self.run_timeout_s)
             waiting = [slot.connection for slot in busy] + [slot.process.sentinel for slot in busy]
             timeout = max(0.0, min(ends.values()) - now) if ends else None
             ready = set(connection_wait(waiting, timeout))
             for slot in busy:
                 if slot.connection in ready or slot.process.sentinel in ready:
-                    task, outcome = slot.task, self._receive(slot)
-                    if outcome is STARTED:
+                    task, outcome = cast(RunTask, slot.task), self._receive(slot)
+                    if isinstance(outcome, str):  # STARTED
                         slot.started = time.monotonic()
                         break
                     slot.task = None
@@ -180,7 +184,7 @@ class PoolBackend:
         self._slots.append(slot)
         return slot
 
-    def _receive(self, slot: _Slot) -> dict[str, Any]:
+    def _receive(self, slot: _Slot) -> dict[str, Any] | str:
         """What ``slot``'s worker sent (:data:`~nbv_gym.sweep.worker.STARTED` or the outcome),
         or a failure if the worker died."""
         try:

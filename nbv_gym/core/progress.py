@@ -90,25 +90,31 @@ class PlainProgress:
         self.start = self.last = time.monotonic()
 
     def update(self, n: int = 1) -> None:
+        """Count ``n`` more items; print a line at most every few seconds."""
         self.n += n
         now = time.monotonic()
         if now - self.last >= PLAIN_INTERVAL_S:
             self._line(now)
 
     def set_description(self, desc: str) -> None:
+        """Show ``desc`` before the count."""
         self.desc = desc
 
     def set_postfix(self, **values: Any) -> None:
+        """Show ``key=value`` pairs after the count."""
         self.postfix = ", ".join(f"{k}={v}" for k, v in values.items())
 
     def set_postfix_str(self, text: str) -> None:
+        """Show ``text`` after the count."""
         self.postfix = text
 
     def write(self, message: str) -> None:
+        """Print ``message`` on stderr (unless the bar is disabled)."""
         if not self.disable:
             print(message, file=sys.stderr, flush=True)
 
     def close(self) -> None:
+        """Print the final count (if the bar is kept and it changed)."""
         if self.leave and self.n != getattr(self, "_written", None):
             self._line(time.monotonic())
 
@@ -141,6 +147,7 @@ class Stages:
         return self
 
     def __call__(self, name: str) -> None:
+        """Start stage ``name`` (the previous one is done)."""
         if self.started:
             self.bar.update()
         self.started = True

@@ -99,6 +99,8 @@ class GoalSpace(spaces.Discrete):
         self._mask_source = mask_source
 
     def sample(self, mask=None, probability=None):
+        """A random goal: among the bound source's valid goals when no mask or probability is
+        given."""
         if mask is None and probability is None and self._mask_source is not None:
             current = self._mask_source()
             if current is not None and current.any():
@@ -191,6 +193,8 @@ class ExploreEnv(gymnasium.Env):
         self._last: StepOutcome | None = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode (on the next world of a distribution when due): ``(observation,
+        info)``."""
         if options:  # none are supported: an option that does nothing must not pass unnoticed
             raise ConfigError(
                 f"reset(options=...): unknown option(s) {sorted(map(str, options))}; "
@@ -207,6 +211,8 @@ class ExploreEnv(gymnasium.Env):
         return self._observation(), self._info()
 
     def step(self, action):
+        """Move to goal ``action`` (snapped or refused per ``invalid_action``), scan, update:
+        Gymnasium's 5-tuple."""
         goal, snapped = goal_index(action, self.sim.n_goals), False
         if self.sim.state is not None:
             mask, shape = self.sim.goal_mask(), self.sim.goal_grid.shape[:2]
@@ -227,6 +233,8 @@ class ExploreEnv(gymnasium.Env):
         return self.sim.goal_mask().astype(np.int8)
 
     def render(self):
+        """The (h, w, 3) uint8 picture of :func:`~nbv_gym.env.render.render_rgb` with
+        ``render_mode='rgb_array'``, else None."""
         if self.render_mode == "rgb_array":
             from nbv_gym.env.render import render_rgb
 

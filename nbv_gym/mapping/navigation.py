@@ -221,7 +221,7 @@ class NavigationLayer:
     def clear(self) -> None:
         """Forget the map: nothing known, the robot at the origin, path lengths from there.
         (With nothing known, nothing is free, eroded free or a frontier: :meth:`reproject`'s
-        result, without the passes over the grid.)"""
+        result, without the passes over the grid)."""
         for array in (self.known, self.occupied, self.eroded_free, self.frontier_mask,
                       self._frontier_near, self.goal_fractions):  # fmt: skip
             array[...] = 0
@@ -340,7 +340,7 @@ def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) ->
 
 
 @njit(cache=True)
-def _dijkstra(passable, si, sj, step):
+def _dijkstra(passable, si, sj, step):  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
     """Dijkstra's algorithm on the 8-connected grid with a binary min-heap in two arrays (keys
     and flat cells; a cell is pushed again when its distance drops, stale entries are skipped),
     its sift loops written out (numba adds reference counting to every call of a helper that

@@ -366,7 +366,7 @@ def _popcount64(v):
 
 
 @njit(cache=True)
-def _gains_kernel(
+def _gains_kernel(  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
     candidates, physical, occluders, surface, reach, nz, crossing_start, crossing_rays,
     dx_start, dx, dy, k, range_m, unit, azimuth, aimed, nx, ny, table, robot_azimuth,
     robot_on_axis, n_sectors, ln_count, floor, first_sigma, wanted,

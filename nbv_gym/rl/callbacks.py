@@ -127,15 +127,19 @@ class TimedVecEnv(VecEnvWrapper):
             self.seconds += time.perf_counter() - start
 
     def reset(self):
+        """Reset the wrapped environments, timing it."""
         return self._timed(self.venv.reset)
 
     def step_async(self, actions) -> None:
+        """Send ``actions`` to the wrapped environments, timing it."""
         self._timed(self.venv.step_async, actions)
 
     def step_wait(self):
+        """Wait for the wrapped environments' step, timing it."""
         return self._timed(self.venv.step_wait)
 
     def env_method(self, method_name: str, *args, indices=None, **kwargs):
+        """Call ``method_name`` on the wrapped environments, timing it."""
         return self._timed(self.venv.env_method, method_name, *args, indices=indices, **kwargs)
 
 

@@ -108,6 +108,8 @@ class DaskVecEnv(ProtocolVecEnv):
             raise
 
     def seed(self, seed: int | None = None):
+        """Seed the environments (environment ``i`` with ``seed + i``) and remember the base seed
+        for rebuilt workers."""
         result = super().seed(seed)
         # seed of environment 0 (VecEnv.seed draws one when seed is None)
         self._base_seed = cast(int, self._seeds[0])

@@ -67,6 +67,8 @@ class MapExtractor(BaseFeaturesExtractor):
             self.skip = nn.Conv2d(len(self.layer_keys), 1, kernel_size=1)
 
     def forward(self, observations: dict[str, th.Tensor]) -> th.Tensor:
+        """(batch, n_goals + features_dim) goal scores and features, or (batch, features_dim)
+        features without goal scores."""
         image = self._image(observations)
         local = self.local(image)
         features = th.cat(
@@ -153,6 +155,7 @@ class GoalLogits(nn.Module):
         self.n_goals = n_goals
 
     def forward(self, latent: th.Tensor) -> th.Tensor:
+        """(batch, n_goals) logits: the latent's first ``n_goals`` entries."""
         return latent[:, : self.n_goals]
 
 
@@ -177,12 +180,15 @@ class GoalMapHeads(nn.Module):
         self.latent_dim_vf = size
 
     def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """The actor's and the critic's latents of (batch, n_goals + features_dim) ``features``."""
         return self.forward_actor(features), self.forward_critic(features)
 
     def forward_actor(self, features: th.Tensor) -> th.Tensor:
+        """The actor's latent: ``features`` unchanged (the goal scores first)."""
         return features
 
     def forward_critic(self, features: th.Tensor) -> th.Tensor:
+        """The critic's (batch, latent_dim_vf) latent, from the global features alone."""
         return self.value_net(features[:, self.n_goals :])
 
 

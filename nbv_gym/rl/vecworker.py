@@ -114,6 +114,7 @@ def env_method(env: Any, data: tuple[str, tuple, dict]) -> Any:
 
 
 def has_attr(env: Any, name: str) -> bool:
+    """Whether ``env`` or one of its wrappers has attribute ``name``."""
     try:
         env.get_wrapper_attr(name)
     except AttributeError:

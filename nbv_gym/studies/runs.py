@@ -38,6 +38,7 @@ class ScanLog:
         self.points: list[np.ndarray] = []
 
     def scan(self, robot, rng):
+        """Scan with the wrapped lidar and keep the scan's origin and points."""
         scan = self._lidar.scan(robot, rng)
         self.origins.append(np.asarray(scan.origin, np.float64))
         self.points.append(np.asarray(scan.points_map, np.float64))
@@ -120,7 +121,6 @@ def find_runs(root: Path) -> list[RunFolder]:
 def run_map(run: RunFolder, resolution_m: float):
     """The :class:`~nbv_gym.mapping.OccupancyMap` of ``run`` at ``resolution_m``: its saved map when
     that has this resolution, else its scans replayed into a new map; None when it has no scans."""
-
     path = run.path / MAP_NAME
     saved_res = GridSpec.from_arrays(read_npz(path, names=GRID_ARRAYS), str(path)).res
     if np.isclose(saved_res, resolution_m):

@@ -122,18 +122,23 @@ class PoolBackend:
 
     @property
     def capacity(self) -> int:
+        """Runs that can be in flight at once: the pool's workers."""
         return self.workers
 
     @property
     def in_flight(self) -> int:
+        """Runs submitted and not yet done."""
         return sum(slot.task is not None for slot in self._slots)
 
     def submit(self, task: RunTask) -> None:
+        """Start ``task`` on an idle worker (a new one if none is idle)."""
         slot = next((s for s in self._slots if s.task is None), None) or self._start_worker()
         slot.connection.send(task)
         slot.task, slot.started = task, None
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
+        """Wait for the next run to end: its task and outcome (a failure if it timed out or its
+        worker died)."""
         while True:
             busy = [slot for slot in self._slots if slot.task is not None]  # each holds a task
             ends = {s: s.started + self.run_timeout_s for s in busy if s.started is not None}
@@ -155,6 +160,7 @@ class PoolBackend:
                     return task, outcome
 
     def close(self) -> None:
+        """Stop the workers (runs still in flight are abandoned)."""
         for slot in list(self._slots):
             if slot.task is not None:
                 self._stop(slot)
@@ -248,18 +254,23 @@ class DaskBackend:
 
     @property
     def capacity(self) -> int:
+        """Runs that can be in flight at once: the cluster's threads."""
         return max(1, sum(self.client.nthreads().values()))
 
     @property
     def in_flight(self) -> int:
+        """Runs submitted and not yet done."""
         return len(self._futures)
 
     def submit(self, task: RunTask) -> None:
+        """Submit ``task`` to the cluster."""
         future = self.client.submit(execute_run, task, pure=False, retries=0)
         self._futures[future] = task
         self._started[future] = time.monotonic()
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
+        """Wait for the next run to end: its task and outcome (a failure if it timed out or its
+        worker was lost)."""
         from distributed import wait as dask_wait
 
         while True:
@@ -312,6 +323,7 @@ class DaskBackend:
             )
 
     def close(self) -> None:
+        """Cancel the runs in flight and disconnect from the cluster."""
         for future in self._futures:
             future.cancel()
         self.client.close()

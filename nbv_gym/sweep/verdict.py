@@ -218,6 +218,7 @@ class OneSided:
 
     @property
     def n(self) -> int:
+        """Number of pairs the test compared."""
         return self.effect.n
 
 

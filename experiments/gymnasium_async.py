@@ -58,6 +58,7 @@ def run(env_id: str, num_envs: int, steps: int, seed: int, **env_kwargs) -> list
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Parse the command line and run the comparison (``--help`` lists the options)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env-id", default="nbv_gym/ExploreBudget-v0")
     parser.add_argument("--world", default="pp1-cuboids", help="a world name or random:<kind>")

@@ -78,6 +78,7 @@ def run(config_path: str, n_worlds: int, vecenv: str, seed: int) -> list[dict]:
 
 
 def main() -> None:
+    """Parse the command line and run the measurement (``--help`` lists the options)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", default="nbv_gym/configs/train/ppo.toml")
     parser.add_argument("--worlds", type=int, default=5)

@@ -155,6 +155,13 @@ class Simulator:
         return len(self.goal_centres)
 
     @property
+    def _live(self) -> ExplorationState:
+        """The episode's state; :class:`ResetNeededError` before a reset."""
+        if self.state is None:
+            raise ResetNeededError("Call reset() first.")
+        return self.state
+
+    @property
     def navigation(self) -> NavigationLayer:
         """The navigation layer of the current episode."""
         return self._state.navigation
@@ -226,7 +233,7 @@ class Simulator:
 
     def goal_mask(self) -> np.ndarray:
         """(n_goals,) bool: the goals that are valid actions now."""
-        return self.state.navigation.goal_mask()
+        return self._live.navigation.goal_mask()
 
     def goal_pose(self, goal: int) -> Pose:
         """The robot's ground pose after teleporting to ``goal``: its cell centre, heading along
@@ -238,13 +245,14 @@ class Simulator:
     def _observe(self, path_length_m: float) -> StepOutcome:
         """Scan from the current pose, update map, statistics, navigation and quality."""
         scan = self.lidar.scan(self.pose, self.rng)
-        update = self.state.apply(scan, robot_xy=np.array([self.pose.x, self.pose.y]))
-        self.state.navigation.limit_reach(self.config.episode.effort.reach_m(self.remaining_s))
+        state = self._live
+        update = state.apply(scan, robot_xy=np.array([self.pose.x, self.pose.y]))
+        state.navigation.limit_reach(self.config.episode.effort.reach_m(self.remaining_s))
         before = self.summary
         self.summary = self._update_quality(update.touched_cells)
         delta_q = self.summary.q - before.q
         reward = delta_q - self.config.episode.path_penalty_per_m * path_length_m
-        discovered = self.state.navigation.discovered_fraction
+        discovered = state.navigation.discovered_fraction
         terminated, truncated, reason = self._end(discovered)
         return StepOutcome(
             scan,
@@ -260,7 +268,9 @@ class Simulator:
         )
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
-        state = self.state
+        state = self._live
+        if state.tally is None:  # the simulator builds its state with an unobserved band
+            raise NbvGymError("the quality update needs the map's cell totals")
         return update_quality(self.quality, state.tally, state.occupancy, self.goal_grid, touched)
 
     def _end(self, discovered: float) -> tuple[bool, bool, str]:
@@ -279,7 +289,7 @@ class Simulator:
     def _time_bound(self) -> bool:
         """Whether the time budget is what leaves no valid goal: some goal would be valid with
         unlimited time."""
-        navigation = self.state.navigation
+        navigation = self._live.navigation
         return bool(navigation.goal_mask(limited=False).any())
 
     def _check_goal(self, goal: int) -> None:
@@ -292,7 +302,7 @@ class Simulator:
         )
 
     def _invalid_reason(self, goal: int) -> str:
-        navigation = self.state.navigation
+        navigation = self._live.navigation
         if goal == navigation.robot_goal:
             return "it is the robot's own cell"
         x, y = self.goal_centres[goal]

@@ -11,7 +11,7 @@ from nbv_gym.mapping import ViewpointStatistics
 from nbv_gym.mapping.mapfile import load_map
 from nbv_gym.metrics.cuboids import QualityConfig
 from nbv_gym.metrics.tracker import evaluate_cuboids
-from nbv_gym.simulator import InvalidActionError, Simulator, SimulatorConfig
+from nbv_gym.simulator import InvalidActionError, ResetNeededError, Simulator, SimulatorConfig
 
 WORLD = "pp1-cuboids"
 
@@ -60,6 +60,14 @@ def test_every_attribute_is_set_in_init():
     fresh.reset(0)
     fresh.step(int(np.flatnonzero(fresh.goal_mask())[0]))
     assert set(vars(fresh)) == names
+
+
+def test_the_goal_mask_before_a_reset_asks_for_one():
+    fresh = Simulator(SimulatorConfig(world=WORLD, noise=1))
+    with pytest.raises(ResetNeededError, match=r"Call reset\(\) first"):
+        fresh.goal_mask()
+    fresh.reset(0)
+    assert fresh.goal_mask().any()
 
 
 def test_save_writes_the_map_and_the_statistics(sim, tmp_path):

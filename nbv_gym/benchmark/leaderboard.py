@@ -70,10 +70,12 @@ class Entry:
 
     @property
     def reference(self) -> bool:
+        """Whether the entry is a shipped reference scorecard."""
         return self.source == "references"
 
     @property
     def oracle(self) -> bool:
+        """Whether the entry's policy reads privileged values (an oracle, ranked apart)."""
         return bool(self.card["policy"]["oracle"])
 
     def metric(self, split: str = RANK_SPLIT) -> str:

@@ -154,18 +154,21 @@ def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
     final figures, Q at 70 % discovered, and Q over effort (:mod:`nbv_gym.benchmark.curves`):
     on the time and path grids, and the normalised area under Q(t) over the time task's
     budget (None in the other tasks)."""
+    import numpy as np
+
     from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S, area_under, grid_curve
     from nbv_gym.core.protocol import DISCOVERED_TARGET
     from nbv_gym.reporting.inference import q_curve
 
     run, steps = record["run"], record["steps"]
-    q = [step["q"] for step in steps]
-    elapsed = [step["elapsed_s"] for step in steps]
-    path = [step["path_length_m"] for step in steps]
+    q = np.array([step["q"] for step in steps], float)
+    elapsed = np.array([step["elapsed_s"] for step in steps], float)
+    path = np.array([step["path_length_m"] for step in steps], float)
     auc = area_under(elapsed, q, part.time_budget_s) if part.task == "time" else None
     target = DISCOVERED_TARGET
-    discovered = [step["discovered"] for step in steps]
-    q_paper_70 = q_curve(discovered, [step["q_paper"] for step in steps], [target])[0]
+    discovered = np.array([step["discovered"] for step in steps], float)
+    q_paper = np.array([step["q_paper"] for step in steps], float)
+    q_paper_70 = q_curve(discovered, q_paper, np.array([target], float))[0]
     return {
         "split": part.split,
         "task": part.task,
@@ -181,7 +184,7 @@ def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
         "q_paper_70": float(q_paper_70),
         "discovered": run["discovered"],
         "path_length_m": run["path_length_m"],
-        "elapsed_s": elapsed[-1],
+        "elapsed_s": steps[-1]["elapsed_s"],
         "q_time_auc": auc,
         "q_time": grid_curve(elapsed, q, TIME_GRID_S),
         "q_path": grid_curve(path, q, PATH_GRID_M),

@@ -88,10 +88,12 @@ class Part:
 
     @property
     def world_names(self) -> tuple[str, ...]:
+        """The names of the part's worlds, in order."""
         return tuple(w.name if isinstance(w, WorldSpec) else w for w in self.worlds)
 
     @property
     def runs(self) -> int:
+        """Number of runs of the part: worlds × noise levels × repeats."""
         return len(self.worlds) * len(self.noise) * self.repeats
 
     def specs(self) -> tuple[WorldSpec, ...]:
@@ -135,9 +137,11 @@ class Suite:
 
     @property
     def runs(self) -> int:
+        """Number of runs of the suite, over all its parts."""
         return sum(part.runs for part in self.parts)
 
     def part(self, split: str) -> Part:
+        """The part of split ``split`` (``StopIteration`` if the suite has none)."""
         return next(p for p in self.parts if p.split == split)
 
     def content(self) -> dict[str, Any]:

@@ -220,7 +220,6 @@ def run(
           --no-animation --json
       nbv-gym run --world pp1-trees --out runs/cf --force
     """
-
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder

@@ -30,6 +30,7 @@ class ShippedConfig:
 
     @property
     def summary(self) -> str:
+        """The config's one-line description: its file's first comment line."""
         first = self.path.read_text(encoding="utf-8").splitlines()[0]
         return first.lstrip("# ").strip()
 

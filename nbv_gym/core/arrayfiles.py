@@ -8,13 +8,14 @@ refuse object arrays (pickles), shapes the data cannot hold and totals above a l
 
 from __future__ import annotations
 
+import io
 import math
 import tokenize
 import zipfile
 import zlib
 from collections.abc import Iterable
 from pathlib import Path
-from typing import BinaryIO
+from typing import IO, Any, cast
 
 import numpy as np
 
@@ -61,7 +62,7 @@ def read_npz(
     return arrays
 
 
-def _read_array(stream: BinaryIO, size: int, source: str | Path) -> np.ndarray:
+def _read_array(stream: IO[bytes], size: int, source: str | Path) -> np.ndarray:
     """The array in ``stream`` (``size`` bytes, header included), refused unless the header is
     valid, the dtype holds no objects and the data fits in ``size``."""
     shape, fortran_order, dtype = _header(stream, source)
@@ -74,18 +75,19 @@ def _read_array(stream: BinaryIO, size: int, source: str | Path) -> np.ndarray:
     need = math.prod(shape) * dtype.itemsize
     data = bytearray(need)
     try:
-        if stream.readinto(data) != need:
+        # zipfile's members and files opened 'rb' are buffered streams, which have readinto
+        if cast(io.BufferedIOBase, stream).readinto(data) != need:
             raise EOFError("the data ends early")
         return np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran_order else "C")
     except _NUMPY_ERRORS as error:
         raise DataFileError(f"{source}: not a valid NPY array ({_one_line(error)})") from None
 
 
-def declared_count(value: object, source: str | Path, what: str) -> int:
+def declared_count(value: Any, source: str | Path, what: str) -> int:
     """``value``, a count a file's header declares (points, vertices, an array's length), as an
     int; :class:`DataFileError` naming ``source`` and ``what`` unless it is an integer ≥ 0."""
     try:
-        count = int(value)  # type: ignore[call-overload]
+        count = int(value)
         exact = count == float(value) if not isinstance(value, str) else str(count) == value
     except (TypeError, ValueError):
         exact = False
@@ -111,7 +113,7 @@ def check_body(source: str | Path, what: str, declared: int, held: int) -> None:
         )
 
 
-def _header(stream: BinaryIO, source: str | Path) -> tuple[tuple[int, ...], bool, np.dtype]:
+def _header(stream: IO[bytes], source: str | Path) -> tuple[tuple[int, ...], bool, np.dtype]:
     """Shape, Fortran order and dtype of the NPY header at the start of ``stream``."""
     try:
         version = np.lib.format.read_magic(stream)
@@ -147,9 +149,11 @@ def array_of(
     """``arrays[name]``, checked: present, of a numpy dtype kind in ``kinds`` (``"f"``, ``"iu"``,
     …) and of ``shape`` (None: any length on that axis); :class:`DataFileError` otherwise."""
     array = arrays.get(name)
-    fits = array is not None and array.dtype.kind in kinds and array.ndim == len(shape)
-    if not fits or any(
-        want not in (None, got) for want, got in zip(shape, array.shape, strict=True)
+    if (
+        array is None
+        or array.dtype.kind not in kinds
+        or array.ndim != len(shape)
+        or any(want not in (None, got) for want, got in zip(shape, array.shape, strict=True))
     ):
         found = "nothing" if array is None else f"{array.dtype} {array.shape}"
         wanted = "×".join("n" if s is None else str(s) for s in shape) or "scalar"

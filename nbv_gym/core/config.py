@@ -13,7 +13,7 @@ import types
 import typing
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 from nbv_gym.core.errors import ConfigError, missing_file
 
@@ -31,7 +31,7 @@ def from_dict(cls: type[T], data: Mapping[str, Any], path: str = "") -> T:
     """
     if not isinstance(data, Mapping):
         raise ConfigError(f"{path or cls.__name__}: expected a table of keys, got {data!r}")
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    fields = {f.name: f for f in dataclasses.fields(cast(Any, cls)) if f.init}
     unknown = sorted(set(data) - set(fields))
     if unknown:
         where = ", ".join(_join(path, k) for k in unknown)
@@ -109,7 +109,7 @@ def _plain(value: Any) -> Any:
 
 def _convert(hint: Any, value: Any, path: str) -> Any:
     origin = typing.get_origin(hint)
-    if dataclasses.is_dataclass(hint):
+    if isinstance(hint, type) and dataclasses.is_dataclass(hint):
         return from_dict(hint, value, path)
     if origin in (typing.Union, types.UnionType):
         return _convert_union(typing.get_args(hint), value, path)

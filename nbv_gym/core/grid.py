@@ -83,7 +83,7 @@ class GridSpec:
         """The grid as arrays ``origin``, ``res``, ``shape`` (for ``.npz`` files)."""
         return {
             "origin": np.asarray(self.origin, float),
-            "res": np.float64(self.res),
+            "res": np.asarray(self.res, np.float64),
             "shape": np.asarray(self.shape, np.int64),
         }
 

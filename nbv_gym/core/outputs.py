@@ -142,7 +142,7 @@ def staged_folder(out: Path, names: Iterable[str]) -> Iterator[Path]:
 
 
 #: What a failed write means to a user, by ``errno``.
-_OS_REASONS = {
+_OS_REASONS: dict[int | None, str] = {
     errno.ENOSPC: "no space left on the device; free some space or choose another place",
     errno.EDQUOT: "the disk quota is exceeded; free some space or choose another place",
     errno.EACCES: "permission denied; choose a place you can write",

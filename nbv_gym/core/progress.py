@@ -29,13 +29,18 @@ def say(message: str) -> None:
     LOGGER.info(message)
 
 
+class _PhaseHandler(logging.StreamHandler):
+    """The stderr handler :func:`speak_on_stderr` adds once (its ``nbv_gym`` mark tells it apart)."""
+
+    nbv_gym = True
+
+
 def speak_on_stderr() -> None:
     """Show the phase messages on stderr, in this process and the worker processes it starts."""
     os.environ[SPEAK_VARIABLE] = "1"
     if not any(getattr(h, "nbv_gym", False) for h in LOGGER.handlers):
-        handler = logging.StreamHandler(sys.stderr)
+        handler = _PhaseHandler(sys.stderr)
         handler.setFormatter(logging.Formatter("%(message)s"))
-        handler.nbv_gym = True
         LOGGER.addHandler(handler)
     LOGGER.setLevel(logging.INFO)
 
@@ -85,25 +90,31 @@ class PlainProgress:
         self.start = self.last = time.monotonic()
 
     def update(self, n: int = 1) -> None:
+        """Count ``n`` more items; print a line at most every few seconds."""
         self.n += n
         now = time.monotonic()
         if now - self.last >= PLAIN_INTERVAL_S:
             self._line(now)
 
     def set_description(self, desc: str) -> None:
+        """Show ``desc`` before the count."""
         self.desc = desc
 
     def set_postfix(self, **values: Any) -> None:
+        """Show ``key=value`` pairs after the count."""
         self.postfix = ", ".join(f"{k}={v}" for k, v in values.items())
 
     def set_postfix_str(self, text: str) -> None:
+        """Show ``text`` after the count."""
         self.postfix = text
 
     def write(self, message: str) -> None:
+        """Print ``message`` on stderr (unless the bar is disabled)."""
         if not self.disable:
             print(message, file=sys.stderr, flush=True)
 
     def close(self) -> None:
+        """Print the final count (if the bar is kept and it changed)."""
         if self.leave and self.n != getattr(self, "_written", None):
             self._line(time.monotonic())
 
@@ -136,6 +147,7 @@ class Stages:
         return self
 
     def __call__(self, name: str) -> None:
+        """Start stage ``name`` (the previous one is done)."""
         if self.started:
             self.bar.update()
         self.started = True

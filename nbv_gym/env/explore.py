@@ -32,7 +32,13 @@ from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
 from nbv_gym.nbv import NbvConfig
-from nbv_gym.simulator import Simulator, SimulatorConfig, StepOutcome, goal_index
+from nbv_gym.simulator import (
+    ResetNeededError,
+    Simulator,
+    SimulatorConfig,
+    StepOutcome,
+    goal_index,
+)
 from nbv_gym.worlds.distribution import POOL_SIZE, WorldDistribution, is_distribution
 
 
@@ -93,6 +99,8 @@ class GoalSpace(spaces.Discrete):
         self._mask_source = mask_source
 
     def sample(self, mask=None, probability=None):
+        """A random goal: among the bound source's valid goals when no mask or probability is
+        given."""
         if mask is None and probability is None and self._mask_source is not None:
             current = self._mask_source()
             if current is not None and current.any():
@@ -185,6 +193,8 @@ class ExploreEnv(gymnasium.Env):
         self._last: StepOutcome | None = None
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode (on the next world of a distribution when due): ``(observation,
+        info)``."""
         if options:  # none are supported: an option that does nothing must not pass unnoticed
             raise ConfigError(
                 f"reset(options=...): unknown option(s) {sorted(map(str, options))}; "
@@ -192,7 +202,7 @@ class ExploreEnv(gymnasium.Env):
             )
         super().reset(seed=seed)
         if self.worlds is not None and self._world_episodes % self.config.episodes_per_world == 0:
-            self._draw_world()
+            self._draw_world(self.worlds)
         self._world_episodes += 1
         episode_seed = int(self.np_random.integers(2**63 - 1))
         self._last = self.sim.reset(episode_seed)
@@ -201,6 +211,8 @@ class ExploreEnv(gymnasium.Env):
         return self._observation(), self._info()
 
     def step(self, action):
+        """Move to goal ``action`` (snapped or refused per ``invalid_action``), scan, update:
+        Gymnasium's 5-tuple."""
         goal, snapped = goal_index(action, self.sim.n_goals), False
         if self.sim.state is not None:
             mask, shape = self.sim.goal_mask(), self.sim.goal_grid.shape[:2]
@@ -221,17 +233,19 @@ class ExploreEnv(gymnasium.Env):
         return self.sim.goal_mask().astype(np.int8)
 
     def render(self):
+        """The (h, w, 3) uint8 picture of :func:`~nbv_gym.env.render.render_rgb` with
+        ``render_mode='rgb_array'``, else None."""
         if self.render_mode == "rgb_array":
             from nbv_gym.env.render import render_rgb
 
             return render_rgb(self.sim)
         return None
 
-    def _draw_world(self) -> None:
+    def _draw_world(self, worlds: WorldDistribution) -> None:
         """Switch to a world drawn from the distribution's pool (kept if drawn again)."""
-        index = self.worlds.draw(self.np_random)
+        index = worlds.draw(self.np_random)
         if index != self._world_index:
-            self.sim.set_world(self.worlds.world(index))
+            self.sim.set_world(worlds.world(index))
             self._world_index = index
 
     def _current_mask(self) -> np.ndarray | None:
@@ -242,15 +256,22 @@ class ExploreEnv(gymnasium.Env):
         stable = mask & self._start_mask
         return stable if stable.any() else mask
 
+    @property
+    def _outcome(self) -> StepOutcome:
+        """The last step's outcome; :class:`ResetNeededError` before a reset."""
+        if self._last is None:
+            raise ResetNeededError("Call reset() first.")
+        return self._last
+
     def _observation(self) -> dict[str, np.ndarray]:
         sim = self.sim
-        optional = self.optional.compute(self._last)
+        optional = self.optional.compute(self._outcome)
         return self.observer.observe(
             sim.navigation, sim.statistics, sim.pose, sim.steps, optional, sim.elapsed_s
         )
 
     def _info(self) -> dict[str, Any]:
-        outcome, sim = self._last, self.sim
+        outcome, sim = self._outcome, self.sim
         quality = outcome.quality
         return {
             "action_mask": sim.goal_mask().astype(np.int8),

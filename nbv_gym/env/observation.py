@@ -52,7 +52,9 @@ def observation_space(
     """The Dict space of the base layers, the ``optional`` layers (name → upper bound) and the
     robot state; ``cost_high``: the ``cost`` layer's upper bound (1 but in the time task,
     :meth:`Observer.cost_high`)."""
-    entries = {name: spaces.Box(0.0, 1.0, (n_goals,), np.float32) for name in BASE_LAYERS}
+    entries: dict[str, spaces.Space] = {
+        name: spaces.Box(0.0, 1.0, (n_goals,), np.float32) for name in BASE_LAYERS
+    }
     entries["cost"] = spaces.Box(0.0, max(cost_high, 1.0), (n_goals,), np.float32)
     for name, high in optional.items():
         entries[name] = spaces.Box(0.0, high, (n_goals,), np.float32)

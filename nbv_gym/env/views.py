@@ -90,6 +90,7 @@ class AgentView(Mapping):
         raise KeyError(key)
 
     def get(self, key: str, default: Any = None) -> Any:
+        """``self[key]``, or ``default`` if the view has no ``key``."""
         try:
             return self[key]
         except KeyError:

@@ -83,7 +83,7 @@ def gather_levels(store, x_offset, y_offset, z_offset, dims, offset, cells, boun
 
 
 @njit(cache=True)
-def project_columns(store, x_offset, y_offset, z_offset, x0, y0, f, known_layers, occupied_layers,
+def project_columns(store, x_offset, y_offset, z_offset, x0, y0, f, known_layers, occupied_layers,  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
                      bound, cells, known, occupied):  # fmt: skip
     """Set ``known[i, j]`` and ``occupied[i, j]`` of each (i, j) of ``cells``: whether some voxel
     of the cell's f × f columns (first column (x0 + f·i, y0 + f·j)) in the [k0, k1) layers is

@@ -66,6 +66,11 @@ class ColumnCounts:
 
 #: The counts of a map insertion that keeps none.
 NO_COLUMNS = ColumnCounts(
-    *(np.full(0, -1, np.int64) for _ in range(2)), np.zeros(4, np.int64), np.float32(0),
-    *(np.zeros((0, 0), np.int32) for _ in range(2)), np.zeros((0, 0), bool),
-)  # fmt: skip
+    x_cell=np.full(0, -1, np.int64),
+    y_cell=np.full(0, -1, np.int64),
+    layers=np.zeros(4, np.int64),
+    bound=np.float32(0),
+    known=np.zeros((0, 0), np.int32),
+    occupied=np.zeros((0, 0), np.int32),
+    changed=np.zeros((0, 0), bool),
+)

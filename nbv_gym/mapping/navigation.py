@@ -107,8 +107,8 @@ class NavigationLayer:
     ):
         self.goal_grid = goal_grid
         self.grid = _nav_grid(goal_grid, cell_m, known_band_m[0])
-        self.known_band_m = tuple(known_band_m)
-        self.occupied_band_m = tuple(occupied_band_m)
+        self.known_band_m: tuple[float, float] = (known_band_m[0], known_band_m[1])
+        self.occupied_band_m: tuple[float, float] = (occupied_band_m[0], occupied_band_m[1])
         self.cost_range_m = float(cost_range_m)
         self._robot_widths = half_widths(disc(robot_radius_m, cell_m))
         self._escape_disc = disc(escape_radius_m, cell_m)
@@ -207,8 +207,8 @@ class NavigationLayer:
         """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free
         cells and the robot's escape zone."""
         self.robot_xy = np.asarray(robot_xy, dtype=float).reshape(2)
-        start = self.grid.index([[*self.robot_xy, self.grid.origin[2]]])[0, :2]
-        start = (int(start[0]), int(start[1]))
+        cell = self.grid.index(np.array([[*self.robot_xy, self.grid.origin[2]]]))[0, :2]
+        start = (int(cell[0]), int(cell[1]))
         self.distance = path_lengths(self._passable(start), start, self.grid.res)
         self._goals = None
 
@@ -221,7 +221,7 @@ class NavigationLayer:
     def clear(self) -> None:
         """Forget the map: nothing known, the robot at the origin, path lengths from there.
         (With nothing known, nothing is free, eroded free or a frontier: :meth:`reproject`'s
-        result, without the passes over the grid.)"""
+        result, without the passes over the grid)."""
         for array in (self.known, self.occupied, self.eroded_free, self.frontier_mask,
                       self._frontier_near, self.goal_fractions):  # fmt: skip
             array[...] = 0
@@ -340,7 +340,7 @@ def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) ->
 
 
 @njit(cache=True)
-def _dijkstra(passable, si, sj, step):
+def _dijkstra(passable, si, sj, step):  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
     """Dijkstra's algorithm on the 8-connected grid with a binary min-heap in two arrays (keys
     and flat cells; a cell is pushed again when its distance drops, stale entries are skipped),
     its sift loops written out (numba adds reference counting to every call of a helper that

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -146,7 +147,8 @@ class OccupancyMap:
         #: the log-odds of an unknown voxel after its first miss
         self._first_miss = min(max(self._deltas[1], self._bounds[0]), self._bounds[1])
         nx, ny, nz = grid.shape
-        self._bricks = tuple(-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
+        bx, by, bz = (-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
+        self._bricks = (bx, by, bz)
         self._dims = np.array([*self._bricks[:2], nx, ny, nz], np.int64)
         self._offsets = axis_offsets(self._bricks)
         self._pages = ZeroPages(math.prod(self._bricks) * math.prod(BRICK))
@@ -244,7 +246,8 @@ class OccupancyMap:
             n_changes, self._sigmoid_cache, self._first_miss, changed
         ):
             cells = np.argwhere(touched)
-            tally.recount(cells, self.probability_blocks(region, cells))
+            # a tally has the shape of the touched mask (checked above), so it comes with a region
+            tally.recount(cells, self.probability_blocks(cast(GridSpec, region), cells))
         return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched, changed)
 
     def clear(self) -> None:
@@ -475,10 +478,16 @@ class OccupancyMap:
             cell[axis][first : first + f * n] = np.arange(f * n) // f
         shape = grid.shape[:2]
         return ColumnCounts(
-            *cell, np.array([*self._band_layers(known_band_m), *self._band_layers(occupied_band_m)]),
-            _positive_bound(self._lo_occupied), np.zeros(shape, np.int32),
-            np.zeros(shape, np.int32), np.zeros(shape, bool),
-        )  # fmt: skip
+            x_cell=cell[0],
+            y_cell=cell[1],
+            layers=np.array(
+                [*self._band_layers(known_band_m), *self._band_layers(occupied_band_m)]
+            ),
+            bound=_positive_bound(self._lo_occupied),
+            known=np.zeros(shape, np.int32),
+            occupied=np.zeros(shape, np.int32),
+            changed=np.zeros(shape, bool),
+        )
 
     def _brick_view(self) -> np.ndarray:
         """(BZ, BX, BY, z, X, Y, x, y) view of the bricked storage: brick, tile in the brick

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -228,10 +229,11 @@ class ViewpointStatistics:
 
     def save(self, path: str | Path) -> None:
         """Write the statistics to a ``.npz`` file."""
+        grid: dict[str, Any] = self.grid.to_arrays()
         np.savez_compressed(
             Path(path),
             format=np.array(_FORMAT),
-            **self.grid.to_arrays(),
+            **grid,
             n_sectors=np.int64(self.n_sectors),
             range_window_m=np.asarray(self.range_window_m),
             min_return_z_m=np.float64(self.min_return_z_m),
@@ -262,7 +264,7 @@ class ViewpointStatistics:
             max_range_m=high,
             min_return_z_m=float(array_of(data, "min_return_z_m", "f", (), path)),
         )
-        targets = (stats._n_obs, stats._r_min, stats._sectors, stats._sum_u)
+        targets: tuple[np.ndarray, ...] = (stats._n_obs, stats._r_min, stats._sectors, stats._sum_u)
         for target, array in zip(targets, arrays, strict=True):
             target[...] = array
         stats._project(every=True)

@@ -128,5 +128,5 @@ class ZeroPages:
         return {"n": len(self.array), "index": index, "values": self.array[index]}
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(state["n"])
+        ZeroPages.__init__(self, state["n"])
         self.array[state["index"]] = state["values"]

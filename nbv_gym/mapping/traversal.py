@@ -105,7 +105,7 @@ def fill_window_tables(tables: tuple, patterns: tuple, window: np.ndarray) -> No
 
 
 @njit(cache=True)
-def insert_scan(
+def insert_scan(  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
     store,
     offsets,
     origin,

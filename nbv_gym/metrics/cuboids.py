@@ -275,7 +275,8 @@ def cuboid_shape(grid_shape: tuple[int, ...], cuboid_voxels: int) -> tuple[int, 
             f"grid shape {tuple(grid_shape)} is not a positive whole number of "
             f"{cuboid_voxels}-voxel cuboids along each of x, y, z"
         )
-    return tuple(s // cuboid_voxels for s in grid_shape)
+    cx, cy, cz = (s // cuboid_voxels for s in grid_shape)
+    return cx, cy, cz
 
 
 def check_grids(prob: FloatArray, gt: BoolArray, cuboid_voxels: int) -> tuple[int, int, int]:
@@ -300,7 +301,7 @@ def cuboid_view(grid: np.ndarray, cuboid_voxels: int) -> np.ndarray:
 
 def occupied_cuboids(gt: BoolArray, cuboid_voxels: int) -> BoolArray:
     """(cx, cy, cz) bool: U_occ, the cuboids whose ground truth holds an occupied voxel."""
-    return cuboid_view(np.asarray(gt, bool), cuboid_voxels).any(axis=(3, 4, 5))
+    return np.asarray(cuboid_view(np.asarray(gt, bool), cuboid_voxels).any(axis=(3, 4, 5)))
 
 
 def comparison_volume(u_occ: BoolArray, volume: str = "ground_truth_box") -> BoolArray:

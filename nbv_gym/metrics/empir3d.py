@@ -76,9 +76,11 @@ class RegionScores:
     def rows(self) -> list[dict[str, float]]:
         """The table as a list of plain dicts (for CSV or JSON)."""
         names = ("n_reference", "n_candidate", "q_r", "q_a", "q_c", "q_t")
-        out = []
+        out: list[dict[str, float]] = []
         for r in range(len(self.index)):
-            row = {f"region_{a}": int(self.index[r, i]) for i, a in enumerate("xyz")}
+            row: dict[str, float] = {
+                f"region_{a}": int(self.index[r, i]) for i, a in enumerate("xyz")
+            }
             row.update({f"low_{a}_m": float(self.low_m[r, i]) for i, a in enumerate("xyz")})
             row.update({k: _plain(getattr(self, k)[r]) for k in names})
             out.append(row)

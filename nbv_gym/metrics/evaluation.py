@@ -97,6 +97,8 @@ def _load_npy(path: Path) -> np.ndarray:
 
 
 def map_summary(metrics, wd: np.ndarray) -> dict:
+    """The map's quality (Q, Q_paper, coverage, L1, counts) and the Wasserstein distance statistics
+    of its occupied cuboids (``wd``: per cuboid), as one flat dict."""
     summary = metrics.summary()
     settings = metrics.config.cov_settings
     occ = wd[metrics.u_occ]
@@ -130,6 +132,8 @@ def _statistics(values: np.ndarray) -> dict[str, float]:
 
 
 def write_cuboid_csv(path: Path, metrics, wd: np.ndarray, grid) -> None:
+    """Write one CSV row per cuboid of ``grid``: its index, low corner in metres, occupancy,
+    observation, coverage, L1, Wasserstein distance and quality."""
     n = metrics.config.cuboid_voxels
     index = np.argwhere(np.ones(metrics.u_occ.shape, bool))
     low = grid.low + index * n * grid.res
@@ -152,6 +156,7 @@ def write_cuboid_csv(path: Path, metrics, wd: np.ndarray, grid) -> None:
 
 
 def write_rows(path: Path, rows: list[dict]) -> None:
+    """Write ``rows`` (dicts with the same keys) to a CSV file at ``path``."""
     import csv
 
     with path.open("w", newline="") as handle:

@@ -298,7 +298,11 @@ PAPER_BLUR_LEVELS: dict[str, tuple[int, float, float]] = {
 
 
 def blurred_reconstruction(
-    gt: FloatArray, kernel_size: int, sigma_voxels: float, noise: float, rng: np.random.Generator
+    gt: FloatArray | BoolArray,
+    kernel_size: int,
+    sigma_voxels: float,
+    noise: float,
+    rng: np.random.Generator,
 ) -> FloatArray:
     """(B, n, n, n) "ideal" reconstruction of the WD paper: the ground truth (B, n, n, n) convolved
     with a normalised 3D Gaussian (``kernel_size`` voxels wide, σ in voxels; zero outside the

@@ -187,7 +187,8 @@ def realised_gains(
     cells whose n_obs grew.
     """
     sensor = sensor or NbvSensor.default()
-    b, a = cell_table(*before, config, sensor), cell_table(*after, config, sensor)
+    (n0, r0, s0, u0), (n1, r1, s1, u1) = before, after
+    b, a = cell_table(n0, r0, s0, u0, config, sensor), cell_table(n1, r1, s1, u1, config, sensor)
     floor = config.gain_floor
     n_b, n_a = b[:, _N_NEXT] - 1.0, a[:, _N_NEXT] - 1.0
     grew = n_a > n_b
@@ -365,7 +366,7 @@ def _popcount64(v):
 
 
 @njit(cache=True)
-def _gains_kernel(
+def _gains_kernel(  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
     candidates, physical, occluders, surface, reach, nz, crossing_start, crossing_rays,
     dx_start, dx, dy, k, range_m, unit, azimuth, aimed, nx, ny, table, robot_azimuth,
     robot_on_axis, n_sectors, ln_count, floor, first_sigma, wanted,

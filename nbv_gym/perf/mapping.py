@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import cast
 
 import numpy as np
 
@@ -98,7 +99,7 @@ def synthetic_lidar(seed: int = 0, n_azimuth: int = 512) -> Lidar:
             parts.append(trimesh.creation.box((*size, height), at))
         else:
             parts.append(trimesh.creation.cylinder(rng.uniform(0.1, 0.4), height, transform=at))
-    mesh = trimesh.util.concatenate(parts)
+    mesh = cast(trimesh.Trimesh, trimesh.util.concatenate(parts))  # meshes join into one mesh
     lidar = LidarConfig(n_azimuth=n_azimuth)
     return Lidar(RayScene(mesh.vertices, mesh.faces), lidar.directions(), lidar.mount_height_m,
                  lidar.min_range_m, lidar.min_horizontal_m, None, LocalisationNoise())  # fmt: skip
@@ -128,9 +129,9 @@ def octomap_insert(scans: Sequence[Scan], params: dict[str, float], resolution_m
 def octomap_states(tree, grid: GridSpec) -> np.ndarray:
     """int8 state (−1 unknown, 0 free, 1 occupied) over ``grid`` (the tree's resolution, aligned)
     of every OctoMap leaf; pruned leaves fill all the voxels they cover."""
-    leaves = [(*it.getCoordinate(), it.getSize(), it.current_node.getLogOdds())
-              for it in tree.begin_leafs()]  # fmt: skip
-    leaves = np.array(leaves, dtype=np.float64).reshape(-1, 5)
+    rows = [(*it.getCoordinate(), it.getSize(), it.current_node.getLogOdds())
+            for it in tree.begin_leafs()]  # fmt: skip
+    leaves = np.array(rows, dtype=np.float64).reshape(-1, 5)
     occupied = leaves[:, 4] >= tree.getOccupancyThresLog()
     n = np.rint(leaves[:, 3] / grid.res).astype(np.int64)
     low = np.rint((leaves[:, :3] - leaves[:, 3:4] / 2 - grid.low) / grid.res).astype(np.int64)
@@ -167,8 +168,8 @@ def _warm_up(config: MappingConfig) -> None:
     small_stats = replace(config.statistics, low_m=(-3.0, -3.0, 0.2), high_m=(3.0, 3.0, 1.2))
     small = ExplorationState.from_config(replace(config, map=small_map, statistics=small_stats))
     origin = np.array([0.0, 0.0, LidarConfig.mount_height_m])
-    small.statistics.update(origin, [[3.0, 1.0, 1.0]])
-    small.occupancy.insert(origin, [[3.0, 1.0, 1.0]])
+    small.statistics.update(origin, np.array([[3.0, 1.0, 1.0]]))
+    small.occupancy.insert(origin, np.array([[3.0, 1.0, 1.0]]))
     small.update_navigation(origin[:2])
 
 

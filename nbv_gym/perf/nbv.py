@@ -12,6 +12,7 @@ Keys of :func:`run`:
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -61,7 +62,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     figures = {"nbv_decision_ms": _median_ms(decide)}
     for gain in GAIN_LAYERS:
         key = f"nbv_decision_{gain.removeprefix('gain_')}_ms"
-        figures[key] = _median_ms(lambda gain=gain: decide((gain,)))
+        figures[key] = _median_ms(functools.partial(decide, (gain,)))
     n_candidates = int(layers[CANDIDATES_LAYER].sum())
     n_visible = _visible_per_candidate(state, predictor, robot_xy)
     return {

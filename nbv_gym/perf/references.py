@@ -58,15 +58,16 @@ def _decision_times(name: str, repeats: int) -> tuple[float, float]:
     ).config
     env = make_env(config, policy)
     observation, info = env.reset(seed=0)
-    if is_oracle(policy):
-        policy.attach(env)
+    attach = getattr(policy, "attach", None)  # an oracle reads the environment
+    if is_oracle(policy) and callable(attach):
+        attach(env)
     for seed_policy in (warmup, policy):
         seed_policy.reset(0)
     for _ in range(WARMUP_STEPS):
         observation, *_, info = env.step(warmup.act(observation, info))
 
     def decide() -> int:  # the layers the policy reads (none for frontier-tour), then act
-        layers = env.optional.compute(env._last) if policy.observation_layers else {}
+        layers = env.optional.compute(env._outcome) if policy.observation_layers else {}
         return policy.act({**observation, **layers}, info)
 
     decide()  # compilation

@@ -24,9 +24,11 @@ class RandomFree:
         self.rng = np.random.default_rng()
 
     def reset(self, seed: int | None = None) -> None:
+        """Start an episode: the goal draw's generator is seeded with ``seed``."""
         self.rng = np.random.default_rng(seed)
 
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
+        """A valid goal drawn uniformly."""
         return self._uniform(np.asarray(info["action_mask"], bool))
 
     def _uniform(self, mask: np.ndarray) -> int:
@@ -40,6 +42,7 @@ class RandomFrontier(RandomFree):
     """A uniformly random frontier goal (random-free when there is none)."""
 
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
+        """A frontier goal drawn uniformly (any valid goal when there is no frontier)."""
         frontier = frontier_goals(observation, info)
         return self._uniform(frontier if frontier.any() else np.asarray(info["action_mask"], bool))
 
@@ -48,6 +51,8 @@ class ClosestFrontier(RandomFree):
     """The frontier goal nearest to the robot in straight line (random-free when there is none)."""
 
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
+        """The frontier goal nearest to the robot in straight line (a random valid goal when
+        there is none)."""
         frontier = frontier_goals(observation, info)
         if not frontier.any():
             return super().act(observation, info)

@@ -121,7 +121,7 @@ def shortest_open_tour(costs: np.ndarray) -> list[int]:
 
 
 @njit(cache=True)
-def _held_karp(costs):
+def _held_karp(costs):  # noqa: C901 — a numba kernel: Held-Karp's subset DP in one loop nest
     """Order (0-based stop indices) of the least-cost open path 0 → all stops."""
     m = costs.shape[0] - 1
     full = (1 << m) - 1

@@ -11,12 +11,15 @@ from __future__ import annotations
 from sb3_contrib import MaskablePPO as _MaskablePPO
 from stable_baselines3 import A2C as _A2C
 from stable_baselines3 import PPO as _PPO
+from stable_baselines3.common.base_class import BaseAlgorithm
 
 #: Attributes of the last rollout step, rebuilt by ``learn`` after every load.
 LAST_STEP = ("_last_obs", "_last_original_obs")
 
 
-class _LeanSave:
+class _LeanSave(BaseAlgorithm):
+    """Saves an algorithm without :data:`LAST_STEP` (mixed in before the SB3 class)."""
+
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), *LAST_STEP]
 

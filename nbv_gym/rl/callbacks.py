@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import time
 from pathlib import Path
+from typing import IO
 
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnvWrapper
@@ -22,8 +23,8 @@ class EpisodeLog(BaseCallback):
     def __init__(self, path: Path):
         super().__init__()
         self.path = Path(path)
-        self._file = None
-        self._writer = None
+        self._file: IO[str]  # both opened when training starts
+        self._writer: csv.DictWriter[str]
 
     def _on_training_start(self) -> None:
         columns = _header(self.path) or COLUMNS
@@ -126,15 +127,19 @@ class TimedVecEnv(VecEnvWrapper):
             self.seconds += time.perf_counter() - start
 
     def reset(self):
+        """Reset the wrapped environments, timing it."""
         return self._timed(self.venv.reset)
 
     def step_async(self, actions) -> None:
+        """Send ``actions`` to the wrapped environments, timing it."""
         self._timed(self.venv.step_async, actions)
 
     def step_wait(self):
+        """Wait for the wrapped environments' step, timing it."""
         return self._timed(self.venv.step_wait)
 
     def env_method(self, method_name: str, *args, indices=None, **kwargs):
+        """Call ``method_name`` on the wrapped environments, timing it."""
         return self._timed(self.venv.env_method, method_name, *args, indices=indices, **kwargs)
 
 
@@ -155,11 +160,13 @@ class PhaseTimer(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         now = time.perf_counter()
-        self.rollout_s += now - self._mark
+        if self._mark is not None:  # the rollout started at the mark
+            self.rollout_s += now - self._mark
         self._mark = now
 
     def _on_training_end(self) -> None:
-        self.update_s += time.perf_counter() - self._mark
+        if self._mark is not None:
+            self.update_s += time.perf_counter() - self._mark
 
     def _on_step(self) -> bool:
         return True

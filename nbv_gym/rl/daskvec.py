@@ -24,7 +24,7 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import cloudpickle
 import gymnasium
@@ -108,8 +108,11 @@ class DaskVecEnv(ProtocolVecEnv):
             raise
 
     def seed(self, seed: int | None = None):
+        """Seed the environments (environment ``i`` with ``seed + i``) and remember the base seed
+        for rebuilt workers."""
         result = super().seed(seed)
-        self._base_seed = self._seeds[0]  # seed of environment 0 (drawn when seed is None)
+        # seed of environment 0 (VecEnv.seed draws one when seed is None)
+        self._base_seed = cast(int, self._seeds[0])
         return result
 
     def worker_of(self, i: int) -> str:

@@ -29,5 +29,6 @@ class EnvGroup:
         return [answer(self.envs[k], command, data, self.prefetch) for k, data in requests]
 
     def close(self) -> None:
+        """Close every environment of the group."""
         for env in self.envs:
             env.close()

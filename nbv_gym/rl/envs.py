@@ -71,6 +71,7 @@ class WorldCycleEnv(gymnasium.Env):
         self.observation_space = self.env.observation_space
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Reset on the next world of the cycle."""
         super().reset(seed=seed)
         world = self.worlds[self._episodes % len(self.worlds)]
         self._episodes += 1
@@ -80,6 +81,7 @@ class WorldCycleEnv(gymnasium.Env):
         return self.env.reset(seed=int(self.np_random.integers(2**31 - 1)))
 
     def step(self, action):
+        """Step the wrapped environment; the reward times ``reward_scale``."""
         observation, reward, terminated, truncated, info = self.env.step(action)
         return observation, self.reward_scale * reward, terminated, truncated, info
 
@@ -101,10 +103,12 @@ class EpisodeMonitor(gymnasium.Wrapper):
         self.rewards: list[float] = []
 
     def reset(self, **kwargs):
+        """Reset the wrapped environment and the episode's rewards."""
         self.rewards = []
         return self.env.reset(**kwargs)
 
     def step(self, action):
+        """Step the wrapped environment; at an episode's end add ``info["episode"]``."""
         observation, reward, terminated, truncated, info = self.env.step(action)
         self.rewards.append(float(reward))
         if terminated or truncated:

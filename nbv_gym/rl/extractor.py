@@ -16,7 +16,9 @@ fast layout on CPU), so a PPO update costs no more than the environment steps it
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from functools import partial
+from typing import Any, Protocol, cast
 
 import numpy as np
 import torch as th
@@ -42,11 +44,13 @@ class MapExtractor(BaseFeaturesExtractor):
     ``log1p(x) / log1p(high)``.
     """
 
+    log_high: th.Tensor  # a registered buffer: (C,) float32 log1p(upper bound) or 0
+
     def __init__(
         self, observation_space: spaces.Dict, features_dim: int = 128, goal_scores: bool = True
     ):
         self.layer_keys = map_layer_keys(observation_space)
-        n_goals = observation_space[self.layer_keys[0]].shape[0]
+        n_goals = _length(observation_space[self.layer_keys[0]])
         super().__init__(observation_space, features_dim + (n_goals if goal_scores else 0))
         self.side = math.isqrt(n_goals)
         self.goal_scores = goal_scores
@@ -55,7 +59,7 @@ class MapExtractor(BaseFeaturesExtractor):
         self.log_scaled = bool(self.log_high.any())
         self.local = _local_cnn(len(self.layer_keys))
         self.map_features = _global_cnn(self.side, features_dim - STATE_FEATURES)
-        state_size = observation_space[STATE_KEY].shape[0]
+        state_size = _length(observation_space[STATE_KEY])
         self.state_features = nn.Sequential(nn.Linear(state_size, STATE_FEATURES), nn.ReLU())
         if goal_scores:
             self.modulation = nn.Linear(features_dim, LOCAL_CHANNELS)
@@ -63,6 +67,8 @@ class MapExtractor(BaseFeaturesExtractor):
             self.skip = nn.Conv2d(len(self.layer_keys), 1, kernel_size=1)
 
     def forward(self, observations: dict[str, th.Tensor]) -> th.Tensor:
+        """(batch, n_goals + features_dim) goal scores and features, or (batch, features_dim)
+        features without goal scores."""
         image = self._image(observations)
         local = self.local(image)
         features = th.cat(
@@ -88,7 +94,7 @@ class MapExtractor(BaseFeaturesExtractor):
 def map_layer_keys(observation_space: spaces.Dict) -> list[str]:
     """The keys of the 2D layers (every entry but ``state``), in the space's order."""
     keys = [k for k in observation_space.spaces if k != STATE_KEY]
-    shapes = {observation_space[k].shape for k in keys}
+    shapes = {tuple(observation_space[k].shape or ()) for k in keys}
     if len(shapes) != 1 or len(next(iter(shapes))) != 1:
         raise ValueError(f"expected flat layers of one size, got shapes {sorted(shapes)}")
     if math.isqrt(next(iter(shapes))[0]) ** 2 != next(iter(shapes))[0]:
@@ -96,9 +102,16 @@ def map_layer_keys(observation_space: spaces.Dict) -> list[str]:
     return keys
 
 
+def _length(space: spaces.Space) -> int:
+    """The length of a flat (n,) space; ValueError for any other."""
+    if space.shape is None or len(space.shape) != 1:
+        raise ValueError(f"expected a flat (n,) space, got shape {space.shape}")
+    return space.shape[0]
+
+
 def _log_highs(observation_space: spaces.Dict, keys: list[str]) -> th.Tensor:
     """Per layer: log1p(upper bound) where the bound exceeds 1, else 0 (the layer is in [0, 1])."""
-    highs = np.array([float(np.max(observation_space[k].high)) for k in keys])
+    highs = np.array([float(np.max(cast(spaces.Box, observation_space[k]).high)) for k in keys])
     return th.as_tensor(np.where(highs > 1, np.log1p(highs), 0.0), dtype=th.float32)
 
 
@@ -142,6 +155,7 @@ class GoalLogits(nn.Module):
         self.n_goals = n_goals
 
     def forward(self, latent: th.Tensor) -> th.Tensor:
+        """(batch, n_goals) logits: the latent's first ``n_goals`` entries."""
         return latent[:, : self.n_goals]
 
 
@@ -166,13 +180,42 @@ class GoalMapHeads(nn.Module):
         self.latent_dim_vf = size
 
     def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        """The actor's and the critic's latents of (batch, n_goals + features_dim) ``features``."""
         return self.forward_actor(features), self.forward_critic(features)
 
     def forward_actor(self, features: th.Tensor) -> th.Tensor:
+        """The actor's latent: ``features`` unchanged (the goal scores first)."""
         return features
 
     def forward_critic(self, features: th.Tensor) -> th.Tensor:
+        """The critic's (batch, latent_dim_vf) latent, from the global features alone."""
         return self.value_net(features[:, self.n_goals :])
+
+
+class _ActorCritic(Protocol):
+    """The parts of SB3's actor-critic policies (``ActorCriticPolicy`` and sb3-contrib's
+    ``MaskableActorCriticPolicy``, which share them but no base class) that
+    :class:`_GoalMapMixin` reads and replaces."""
+
+    action_space: Any
+    net_arch: Any
+    ortho_init: bool
+    share_features_extractor: bool
+    features_extractor: Any
+    pi_features_extractor: Any
+    vf_features_extractor: Any
+    mlp_extractor: Any
+    action_net: Any
+    value_net: Any
+    optimizer: Any
+    optimizer_class: Any
+    optimizer_kwargs: dict[str, Any]
+
+    def init_weights(self, module: nn.Module, gain: float = 1) -> None: ...
+
+    def parameters(self, recurse: bool = True) -> Iterator[nn.Parameter]: ...
+
+    def _build_mlp_extractor(self) -> None: ...
 
 
 class _GoalMapMixin:
@@ -180,13 +223,17 @@ class _GoalMapMixin:
     :class:`GoalLogits` (``net_arch``: ``{"pi": [], "vf": [hidden sizes]}``), with SB3's
     orthogonal initialisation (small initial goal scores, as SB3 does for its action head)."""
 
-    def _build_mlp_extractor(self) -> None:
+    # SB3 types them MlpExtractor and nn.Module; the goal-map heads take their place
+    mlp_extractor: Any
+    action_net: Any
+
+    def _build_mlp_extractor(self: _ActorCritic) -> None:
         extractor = self.features_extractor
         self.mlp_extractor = GoalMapHeads(
             int(self.action_space.n), extractor.global_dim, list(self.net_arch["vf"])
         )
 
-    def _build(self, lr_schedule) -> None:
+    def _build(self: _ActorCritic, lr_schedule: Callable[[float], float]) -> None:
         self._build_mlp_extractor()
         self.action_net = GoalLogits(int(self.action_space.n))
         self.value_net = nn.Linear(self.mlp_extractor.latent_dim_vf, 1)

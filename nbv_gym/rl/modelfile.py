@@ -163,10 +163,11 @@ def _observation_space(entry: Any, path: Path) -> Any:
 
 def _box(kind: str, body: str):
     """A float32 Box (its bounds are not kept) of the shape a saved space's repr ends with."""
+    import numpy as np
     from gymnasium import spaces
 
     shapes = re.findall(r"\(([\d, ]*)\)", body) if kind == "Box" else []
     sizes = [int(s) for s in shapes[-1].replace(" ", "").split(",") if s] if shapes else []
     if math.prod(sizes) > MAX_BOX_SIZE:
         sizes = []  # larger than any layer: a wrong shape either way
-    return spaces.Box(-1.0, 1.0, tuple(sizes), dtype="float32")
+    return spaces.Box(-1.0, 1.0, tuple(sizes), dtype=np.float32)

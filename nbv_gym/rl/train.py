@@ -19,7 +19,14 @@ import time
 import warnings
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import gymnasium
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.vec_env import VecEnv
 
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import ClusterError, ConfigError, MissingExtraError
@@ -157,11 +164,12 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     from nbv_gym.rl.daskvec import DaskVecEnv
     from nbv_gym.rl.vecenv import LeanSubprocVecEnv
 
-    factories = [
+    factories: list[Callable[[], gymnasium.Env]] = [
         partial(_env_factory, config, _share(config.train_worlds, i, config.n_envs))
         for i in range(config.n_envs)
     ]
     masks = ("action_masks",) if config.algorithm == "MaskablePPO" else ()
+    envs: VecEnv
     if config.scheduler:
         workers = min(config.n_envs, os.cpu_count() or 1)
         envs = DaskVecEnv(factories, config.scheduler, local_workers=workers, prefetch=masks)
@@ -244,7 +252,7 @@ def _share(worlds: tuple[str, ...], i: int, n: int) -> tuple[str, ...]:
     return worlds[shift:] + worlds[:shift]
 
 
-def algorithm_class(name: str) -> type:
+def algorithm_class(name: str) -> type[BaseAlgorithm]:
     """The SB3 class of an algorithm name in :data:`ALGORITHM_CLASSES`."""
     import importlib
 
@@ -341,7 +349,7 @@ def _callbacks(
         callbacks.append(
             CheckpointCallback(
                 _calls(config.checkpoint_every_steps, config.n_envs),
-                out / "checkpoints",
+                str(out / "checkpoints"),
                 name_prefix="model",
             )
         )
@@ -350,8 +358,19 @@ def _callbacks(
     return callbacks
 
 
+class _EvalKwargs(TypedDict):
+    """The settings the evaluation callbacks (SB3's and sb3-contrib's) share."""
+
+    n_eval_episodes: int
+    eval_freq: int
+    best_model_save_path: str
+    log_path: str
+    deterministic: bool
+    verbose: int
+
+
 def _eval_callback(config: TrainConfig, out: Path, eval_env, verbose: int):
-    kwargs = {
+    kwargs: _EvalKwargs = {
         "n_eval_episodes": config.n_eval_episodes,
         "eval_freq": _calls(config.eval_every_steps, config.n_envs),
         "best_model_save_path": str(out),

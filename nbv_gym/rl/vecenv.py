@@ -71,10 +71,12 @@ class ProtocolVecEnv(VecEnv):
         raise NotImplementedError
 
     def step_async(self, actions: np.ndarray) -> None:
+        """Send one action to each worker."""
         self._post("step", list(actions), range(self.num_envs))
         self.waiting = True
 
     def step_wait(self) -> VecEnvStepReturn:
+        """Collect the workers' steps (an ended episode is reset in its worker)."""
         self.waiting = False
         results = self._receive(range(self.num_envs))
         observations, rewards, dones, infos, reset_infos = map(list, zip(*results, strict=True))
@@ -84,6 +86,7 @@ class ProtocolVecEnv(VecEnv):
         return self._stack(observations), np.stack(rewards), np.stack(dones), infos
 
     def reset(self) -> VecEnvObs:
+        """Reset every environment with its seed and options: the stacked observations."""
         indices = range(self.num_envs)
         self._post("reset", list(zip(self._seeds, self._options, strict=True)), indices)
         observations, reset_infos = map(list, zip(*self._receive(indices), strict=True))
@@ -93,6 +96,7 @@ class ProtocolVecEnv(VecEnv):
         return self._stack(observations)
 
     def close(self) -> None:
+        """Stop the workers (after any step in flight)."""
         if self.closed:
             return
         if self.waiting:
@@ -101,20 +105,25 @@ class ProtocolVecEnv(VecEnv):
         self.closed = True
 
     def get_images(self) -> Sequence[np.ndarray | None]:
+        """Each environment's rendered picture (None where it renders none)."""
         return self._call("render", None, None)
 
     def has_attr(self, attr_name: str) -> bool:
+        """Whether every environment has attribute ``attr_name``."""
         return all(self._call("has_attr", attr_name, None))
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """Attribute ``attr_name`` of the environments at ``indices``."""
         return self._call("get_attr", attr_name, indices)
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        """Set attribute ``attr_name`` of the environments at ``indices``."""
         self._call("set_attr", (attr_name, value), indices)
 
     def env_method(
         self, method_name: str, *method_args, indices: VecEnvIndices = None, **method_kwargs
     ) -> list[Any]:
+        """Call ``method_name`` on the environments at ``indices``: their results."""
         indices = list(self._get_indices(indices))
         if not (method_args or method_kwargs):
             if all(method_name in self._prefetched[i] for i in indices):
@@ -124,6 +133,8 @@ class ProtocolVecEnv(VecEnv):
     def env_is_wrapped(
         self, wrapper_class: type[gymnasium.Wrapper], indices: VecEnvIndices = None
     ) -> list[bool]:
+        """Whether the environments at ``indices`` are wrapped in ``wrapper_class`` (compared by
+        name)."""
         # by name: unpickling the class (SB3's Monitor) would import torch in the workers
         name = (wrapper_class.__module__, wrapper_class.__qualname__)
         return self._call("is_wrapped", name, indices)
@@ -170,7 +181,8 @@ class LeanSubprocVecEnv(ProtocolVecEnv):
         start_method: str = "forkserver",
         prefetch: Sequence[str] = (),
     ):
-        context = multiprocessing.get_context(start_method)
+        # typeshed's BaseContext lacks the Process that every start method's context has
+        context: Any = multiprocessing.get_context(start_method)
         self.remotes, self.processes = [], []
         for env_fn in env_fns:
             remote, work_remote = context.Pipe()

@@ -20,6 +20,7 @@ from __future__ import annotations
 import pickle
 import sys
 import traceback
+from collections.abc import Callable
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -113,6 +114,7 @@ def env_method(env: Any, data: tuple[str, tuple, dict]) -> Any:
 
 
 def has_attr(env: Any, name: str) -> bool:
+    """Whether ``env`` or one of its wrappers has attribute ``name``."""
     try:
         env.get_wrapper_attr(name)
     except AttributeError:
@@ -143,7 +145,7 @@ def is_wrapped(env: Any, wrapper: tuple[str, str]) -> bool:
 
 
 #: command name → ``function(env, data)``; ``close`` is handled by :func:`serve`.
-COMMANDS = {
+COMMANDS: dict[str, Callable[[Any, Any], Any]] = {
     "step": step,
     "reset": reset,
     "render": lambda env, _: env.render(),

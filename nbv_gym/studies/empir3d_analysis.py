@@ -115,6 +115,7 @@ class AblationResult:
 
     @property
     def label(self) -> str:
+        """The ablation's name for tables (``none (A vs A)`` for the baseline)."""
         return "none (A vs A)" if self.ablation is None else self.ablation.value
 
 

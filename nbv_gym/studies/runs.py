@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -37,6 +38,7 @@ class ScanLog:
         self.points: list[np.ndarray] = []
 
     def scan(self, robot, rng):
+        """Scan with the wrapped lidar and keep the scan's origin and points."""
         scan = self._lidar.scan(robot, rng)
         self.origins.append(np.asarray(scan.origin, np.float64))
         self.points.append(np.asarray(scan.points_map, np.float64))
@@ -66,17 +68,18 @@ def make_run(world: str, noise: int, policy: str, seed: int, max_steps: int, out
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import load_policy
+    from nbv_gym.sensor.lidar import Lidar
     from nbv_gym.simulator import SimulatorConfig
 
     agent = load_policy(policy)
     episode = EpisodeConfig(max_steps=max_steps, discovered_target=1.0)
     env = make_env(EnvConfig(SimulatorConfig(world=world, noise=noise, episode=episode)), agent)
     log = ScanLog(env.sim.lidar)
-    env.sim.lidar = log
+    env.sim.lidar = cast(Lidar, log)  # a ScanLog scans like the lidar it wraps
     result = run_episode(env, agent, seed)
     meta = {"world": world, "policy": policy, "noise": noise, "seed": seed}
     write_run_folder(out, env, result, meta)
-    log.save(out / SCANS_NAME, env.sim.state.occupancy)
+    log.save(out / SCANS_NAME, env.sim.occupancy)
     return out
 
 
@@ -118,7 +121,6 @@ def find_runs(root: Path) -> list[RunFolder]:
 def run_map(run: RunFolder, resolution_m: float):
     """The :class:`~nbv_gym.mapping.OccupancyMap` of ``run`` at ``resolution_m``: its saved map when
     that has this resolution, else its scans replayed into a new map; None when it has no scans."""
-
     path = run.path / MAP_NAME
     saved_res = GridSpec.from_arrays(read_npz(path, names=GRID_ARRAYS), str(path)).res
     if np.isclose(saved_res, resolution_m):

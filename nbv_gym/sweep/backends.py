@@ -16,8 +16,9 @@ import os
 import time
 import traceback
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as connection_wait
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 from nbv_gym.core.cluster import connect, describe
 from nbv_gym.core.processes import worker_environment
@@ -63,7 +64,7 @@ def make_backend(workers: int | None, scheduler: str | None, run_timeout_s: floa
     workers = (os.cpu_count() or 1) if workers is None else workers
     if workers < 1:
         raise SweepError(f"--workers must be ≥ 1, got {workers}")
-    if check_scheduler(scheduler) is not None:
+    if scheduler is not None and check_scheduler(scheduler) is not None:
         return DaskBackend(scheduler, workers, run_timeout_s)
     return PoolBackend(workers, run_timeout_s)
 
@@ -108,49 +109,58 @@ class PoolBackend:
         self.run_timeout_s = run_timeout_s
         self.description = f"local process pool of {workers} worker(s)"
         methods = multiprocessing.get_all_start_methods()
-        self._context = multiprocessing.get_context(
-            "forkserver" if "forkserver" in methods else "spawn"
+        self._context = (
+            multiprocessing.get_context("forkserver")
+            if "forkserver" in methods
+            else multiprocessing.get_context("spawn")
         )
         self._slots: list[_Slot] = []
-        self._alive = None  # (read end, write end) of the pipe that tells workers we live
+        # (read end, write end) of the pipe that tells workers we live
+        self._alive: tuple[Connection, Connection] | None = None
         self._environment = worker_environment()
         self._environment.__enter__()
 
     @property
     def capacity(self) -> int:
+        """Runs that can be in flight at once: the pool's workers."""
         return self.workers
 
     @property
     def in_flight(self) -> int:
+        """Runs submitted and not yet done."""
         return sum(slot.task is not None for slot in self._slots)
 
     def submit(self, task: RunTask) -> None:
+        """Start ``task`` on an idle worker (a new one if none is idle)."""
         slot = next((s for s in self._slots if s.task is None), None) or self._start_worker()
         slot.connection.send(task)
         slot.task, slot.started = task, None
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
+        """Wait for the next run to end: its task and outcome (a failure if it timed out or its
+        worker died)."""
         while True:
-            busy = [slot for slot in self._slots if slot.task is not None]
+            busy = [slot for slot in self._slots if slot.task is not None]  # each holds a task
             ends = {s: s.started + self.run_timeout_s for s in busy if s.started is not None}
             now = time.monotonic()
             late = [slot for slot, end in ends.items() if end <= now]
             if late:
                 self._stop(late[0])
-                return late[0].task, timed_out(self.run_timeout_s)
+                return cast(RunTask, late[0].task), timed_out(self.run_timeout_s)
             waiting = [slot.connection for slot in busy] + [slot.process.sentinel for slot in busy]
             timeout = max(0.0, min(ends.values()) - now) if ends else None
             ready = set(connection_wait(waiting, timeout))
             for slot in busy:
                 if slot.connection in ready or slot.process.sentinel in ready:
-                    task, outcome = slot.task, self._receive(slot)
-                    if outcome is STARTED:
+                    task, outcome = cast(RunTask, slot.task), self._receive(slot)
+                    if isinstance(outcome, str):  # STARTED
                         slot.started = time.monotonic()
                         break
                     slot.task = None
                     return task, outcome
 
     def close(self) -> None:
+        """Stop the workers (runs still in flight are abandoned)."""
         for slot in list(self._slots):
             if slot.task is not None:
                 self._stop(slot)
@@ -180,7 +190,7 @@ class PoolBackend:
         self._slots.append(slot)
         return slot
 
-    def _receive(self, slot: _Slot) -> dict[str, Any]:
+    def _receive(self, slot: _Slot) -> dict[str, Any] | str:
         """What ``slot``'s worker sent (:data:`~nbv_gym.sweep.worker.STARTED` or the outcome),
         or a failure if the worker died."""
         try:
@@ -244,18 +254,23 @@ class DaskBackend:
 
     @property
     def capacity(self) -> int:
+        """Runs that can be in flight at once: the cluster's threads."""
         return max(1, sum(self.client.nthreads().values()))
 
     @property
     def in_flight(self) -> int:
+        """Runs submitted and not yet done."""
         return len(self._futures)
 
     def submit(self, task: RunTask) -> None:
+        """Submit ``task`` to the cluster."""
         future = self.client.submit(execute_run, task, pure=False, retries=0)
         self._futures[future] = task
         self._started[future] = time.monotonic()
 
     def next_done(self) -> tuple[RunTask, dict[str, Any]]:
+        """Wait for the next run to end: its task and outcome (a failure if it timed out or its
+        worker was lost)."""
         from distributed import wait as dask_wait
 
         while True:
@@ -308,6 +323,7 @@ class DaskBackend:
             )
 
     def close(self) -> None:
+        """Cancel the runs in flight and disconnect from the cluster."""
         for future in self._futures:
             future.cancel()
         self.client.close()

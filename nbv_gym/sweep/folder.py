@@ -31,7 +31,7 @@ import re
 import time
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
@@ -85,7 +85,7 @@ class ResultStore:
         self.failures_dir = self.root / "failures"
         self.corrupt_dir = self.root / "corrupt"
         self.set_aside: list[str] = []
-        self._lock_file = None
+        self._lock_file: IO[str] | None = None
 
     # -- starting and resuming ------------------------------------------------------------------
 
@@ -280,7 +280,9 @@ class ResultStore:
         self._check_is_results_folder()
         listed = self._listed()
         finished = self.finished_records()
-        run_rows, step_rows, unlisted = [], [], []
+        run_rows: list[dict[str, Any]] = []
+        step_rows: list[dict[str, Any]] = []
+        unlisted: list[str] = []
         for path, record in finished:
             run = record["run"]
             if not listed(run):
@@ -291,11 +293,11 @@ class ResultStore:
             step_rows.extend({**identity, **step} for step in record["steps"])
         done = {path.name for path, _ in finished}
         for path in sorted(self.failures_dir.glob("*.json")):
-            record = self._failure_record(path) if path.name not in done else None
-            if record is not None and listed(record):
-                run_rows.append(_failed_row(record))
-            elif record is not None:
-                unlisted.append(record.get("key", path.name))
+            failed = self._failure_record(path) if path.name not in done else None
+            if failed is not None and listed(failed):
+                run_rows.append(_failed_row(failed))
+            elif failed is not None:
+                unlisted.append(failed.get("key", path.name))
         if unlisted:
             self.set_aside.append(
                 f"{len(unlisted)} run(s) in {self.root} are of worlds, noise levels, policies or "
@@ -313,7 +315,7 @@ class ResultStore:
         runs = runs.sort_values(["world", "noise", "policy", "repeat"], kind="stable")
         steps = pd.DataFrame(step_rows, columns=list(STEP_TABLE_COLUMNS))
         paths = {name: self.root / f"{name}.{ext}" for name, ext in _TABLES}
-        manifest = {"files": self._record_files()}
+        manifest: dict[str, Any] = {"files": self._record_files()}
         _write_together(
             {
                 paths["cuboids"]: (

@@ -106,6 +106,8 @@ def pairwise_table(ok, policies: list[str], metric: str, rng: np.random.Generato
 
 
 def pairwise_text(pairs, label: str) -> str:
+    """The Markdown table of the policy pairs ``pairs`` (differences, intervals, p-values) under the
+    quantity ``label``, with a power note."""
     if pairs.empty:
         return "Fewer than two policies."
     rows = [
@@ -198,6 +200,7 @@ def table2(tests, by: tuple[str, ...] = ()):
 
 
 def ci_text(interval: Interval, signed: bool = False) -> str:
+    """``mean [low, high]`` of ``interval`` (signed with ``signed``); ``—`` when undefined."""
     sign = "+" if signed else ""
     if not np.isfinite(interval.mean):
         return "—"
@@ -205,10 +208,12 @@ def ci_text(interval: Interval, signed: bool = False) -> str:
 
 
 def p_text(value: float) -> str:
+    """A p-value to 3 significant digits; ``—`` when undefined."""
     return "—" if not np.isfinite(value) else f"{value:.3g}"
 
 
 def share_text(value: float) -> str:
+    """A share to 2 decimals; ``—`` when undefined."""
     return "—" if not np.isfinite(value) else f"{value:.2f}"
 
 

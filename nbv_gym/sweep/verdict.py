@@ -51,6 +51,7 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -94,7 +95,7 @@ WILCOXON = "one-sided Wilcoxon signed-rank (H1: NBV higher), paired by world·no
 #: The columns of the verdict table (``model``: the visibility model, "" for none).
 COLUMNS = ["claim", "paper", "n", "test", "p", "effect", "ours", "verdict", "model"]
 #: How each family of comparison rows reads.
-COMPARISONS = {
+COMPARISONS: dict[str, dict[str, Any]] = {
     "fig2": {
         "claim": "Fig. 2: {policy} above {baseline}",
         "paper": "NBV curves higher than the baselines' (Q_paper vs discovered)",
@@ -258,6 +259,7 @@ class OneSided:
 
     @property
     def n(self) -> int:
+        """Number of pairs the test compared."""
         return self.effect.n
 
 
@@ -352,7 +354,7 @@ def comparison_rows(runs, values, kind: str, rng: np.random.Generator):
                     above += bool(cell.p_above < ALPHA)
                     below += bool(cell.p_below < ALPHA)
         found.append((policy, baseline, tests, (above, below, cells)))
-    p_holm = holm([t.p_above for *_, tests, _ in found for t in tests])
+    p_holm = holm(np.array([t.p_above for *_, tests, _ in found for t in tests], float))
     family = int(np.isfinite(p_holm).sum())
     rows, k = [], len(values.columns)
     for i, (policy, baseline, tests, counts) in enumerate(found):
@@ -521,7 +523,6 @@ def verdict_section(table, out: Path) -> str:
     """The report's verdict section (writes ``verdict.csv``): the rules, the per-model summary
     when the NBV policies fix visibility models, the table, and a power note where the Fig. 2
     tests cannot reach significance."""
-
     table.to_csv(out / "verdict.csv", index=False)
     summary = count_summary(table["verdict"])
     lines = [

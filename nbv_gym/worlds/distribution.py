@@ -56,6 +56,7 @@ class WorldDistribution:
 
     @property
     def name(self) -> str:
+        """The distribution's world name (``dist:KIND``)."""
         return PREFIX + self.kind
 
     def spec(self, index: int) -> WorldSpec:

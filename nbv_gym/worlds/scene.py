@@ -33,7 +33,7 @@ class RayScene:
         return {"arrays": self._arrays}
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(*state["arrays"])
+        RayScene.__init__(self, *state["arrays"])
 
     def cast(self, origins: FloatArray, directions: FloatArray) -> FloatArray:
         """(n,) float64 distance along each (n, 3) unit direction from each (n, 3) origin to the

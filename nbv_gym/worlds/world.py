@@ -52,6 +52,7 @@ class World:
 
     @property
     def name(self) -> str:
+        """The world's name (its spec's)."""
         return self.spec.name
 
     @property

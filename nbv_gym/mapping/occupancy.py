@@ -183,6 +183,17 @@ class OccupancyMap:
         size = np.minimum([2 * half + 1, 2 * half + 1, grid.shape[2]], grid.shape)
         return (-(-size // 8) * 8).astype(np.int64)
 
+    @staticmethod
+    def brick_counts(grid: GridSpec, max_range_m: float) -> tuple[tuple[int, ...], ...]:
+        """The bricks (pages) of a map over ``grid`` along x, y, z, and the most bricks along
+        each axis that the marking window of a sensor of range ``max_range_m`` (the voxels one
+        scan can write) overlaps: one more than it spans, as it need not start on a brick."""
+        box = tuple(-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
+        shape = OccupancyMap._marking_window(grid, max_range_m)
+        window = tuple(min(-(-int(n) // b) + 1, m) for n, b, m in zip(
+            shape, BRICK, box, strict=True))  # fmt: skip
+        return box, window
+
     # ------------------------------------------------------------------ update
 
     def insert(

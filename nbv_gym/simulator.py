@@ -24,11 +24,26 @@ from nbv_gym.mapping import (
 )
 from nbv_gym.mapping.mapfile import save_map
 from nbv_gym.mapping.scratch import ScanTrial
+from nbv_gym.mapping.store import BLOCK
 from nbv_gym.mapping.tally import CellTally
 from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary
 from nbv_gym.metrics.tracker import QualityTracker
 from nbv_gym.sensor.lidar import Lidar, LidarConfig, Scan
 from nbv_gym.worlds import World, load_spec, load_world
+
+#: The most memory one simulator's episode may need by :func:`episode_memory_bytes` (bytes); a
+#: world or episode estimated above it is refused before the episode starts.
+MAX_EPISODE_BYTES = 4 << 30
+#: Measured costs behind :func:`episode_memory_bytes` (a 1000-tree 500 m world, Linux): the
+#: interpreter with numpy, numba and Embree; Embree's acceleration structure per triangle; the
+#: statistics, tally, quality and navigation arrays per cell of G.
+PROCESS_BYTES = 320 << 20
+EMBREE_BYTES_PER_TRIANGLE = 80
+BYTES_PER_G_CELL = 256
+
+
+class EpisodeMemoryError(NbvGymError, MemoryError):
+    """An episode whose estimated memory exceeds :data:`MAX_EPISODE_BYTES`."""
 
 
 class InvalidActionError(NbvGymError, ValueError):
@@ -116,6 +131,7 @@ class Simulator:
         self.goal_grid = self.config.mapping.statistics.grid()
         self._check_world(spec)
         self.world = world or load_world(spec)
+        self._check_memory(self.world)
         self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
         self.voxel_grid = _refine(self.goal_grid, self.config.mapping.map.resolution_m)
         self.quality = self._quality_tracker(self.world)
@@ -136,11 +152,33 @@ class Simulator:
         draw), keeping this simulator's grids and map arrays; the previous world's scene and
         ground truth are released. ConfigError unless its placement window lies in G."""
         self._check_world(world.spec)
+        self._check_memory(world)
         self.world = world
         self.lidar = Lidar.for_world(world, self.config.lidar, self.config.noise)
         self.quality = self._quality_tracker(world)
         self._unobserved = self.summary = self.quality.summary()
         self.state = None
+
+    def _check_memory(self, world: World) -> None:
+        """EpisodeMemoryError if an episode on ``world`` may need more than
+        :data:`MAX_EPISODE_BYTES` (:func:`episode_memory_bytes`), naming the estimate, the limit
+        and the longest episode that fits."""
+        config = self.config
+        need = episode_memory_bytes(world, config.mapping, config.episode.max_steps + 1)
+        if need <= MAX_EPISODE_BYTES:
+            return
+        fixed = episode_memory_bytes(world, config.mapping, 0)
+        fits = (MAX_EPISODE_BYTES - fixed) // map_page_bytes(config.mapping, 1) - 1  # steps
+        advice = (
+            f"lower episode.max_steps to {fits} or less, or use a smaller placement window"
+            if fits >= 1
+            else "use a smaller placement window or fewer assets"
+        )
+        raise EpisodeMemoryError(
+            f"an episode of {config.episode.max_steps} steps on world {world.name} may need "
+            f"{need / 2**30:.1f} GiB, more than the limit of {MAX_EPISODE_BYTES / 2**30:g} GiB "
+            f"(nbv_gym.simulator.MAX_EPISODE_BYTES); {advice}"
+        )
 
     def _check_world(self, spec) -> None:
         low, high = tuple(self.goal_grid.low[:2]), tuple(self.goal_grid.high[:2])
@@ -337,6 +375,33 @@ class Simulator:
         )
         voxels = world.ground_truth.grid_voxels(self.voxel_grid)
         return QualityTracker.from_voxels(voxels, self.voxel_grid.shape, config)
+
+
+def episode_memory_bytes(world: World, mapping: MappingConfig, n_scans: int) -> int:
+    """An upper estimate of a simulator's memory (bytes) for an episode of ``n_scans`` scans on
+    ``world`` with the (fitted) ``mapping`` config: the process, the world's arrays and Embree's
+    copy and acceleration structure of its mesh, the per-cell arrays of G, and the map's pages —
+    at most those of the whole map box, and at most those of the sensor's marking window per
+    scan (a scan writes no voxel outside it)."""
+    mesh = world.vertices.nbytes + world.faces.nbytes
+    world_bytes = 2 * mesh + 2 * world.ground_truth.voxels.nbytes
+    embree = EMBREE_BYTES_PER_TRIANGLE * len(world.faces)
+    cells = int(np.prod(mapping.statistics.grid().shape))
+    return (
+        PROCESS_BYTES
+        + world_bytes
+        + embree
+        + BYTES_PER_G_CELL * cells
+        + map_page_bytes(mapping, n_scans)
+    )
+
+
+def map_page_bytes(mapping: MappingConfig, n_scans: int) -> int:
+    """The most bytes of map pages ``n_scans`` scans make resident: the bricks of the map box,
+    at most those overlapping the marking window of each scan (one brick more per axis, as the
+    window need not start on a brick)."""
+    box, window = OccupancyMap.brick_counts(mapping.map.grid(), mapping.sensor_range_m)
+    return BLOCK * 4 * min(int(np.prod(box)), n_scans * int(np.prod(window)))
 
 
 def update_quality(

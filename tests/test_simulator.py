@@ -142,3 +142,49 @@ def test_incremental_quality_equals_a_full_recomputation_of_the_map():
     np.testing.assert_array_equal(kept.cov, full.cov)
     np.testing.assert_equal(astuple(sim.summary), astuple(full.summary()))
     assert 0 < sim.summary.q < 1 and kept.observed.sum() > 100
+
+
+def test_the_map_pages_of_n_scans_are_bounded_by_the_box_and_the_marking_window():
+    from nbv_gym.mapping import MappingConfig
+    from nbv_gym.simulator import map_page_bytes
+
+    # the default 64 × 64 × 9 m box at 0.1 m: 40 × 40 × 23 bricks of 16 × 16 × 4 voxels; a
+    # 20 m sensor's window is 408 × 408 × 96 voxels (403 rounded up to bytes of 8), at most 27
+    # × 27 × 23 bricks (25.5 + 1 along x, y; the box's 23 along z)
+    config = MappingConfig()
+    assert map_page_bytes(config, 1) == 27 * 27 * 23 * 4096
+    assert map_page_bytes(config, 3) == 40 * 40 * 23 * 4096
+
+
+def test_a_scan_writes_only_pages_of_its_marking_window(sim):
+    from nbv_gym.mapping import MappingConfig, OccupancyMap
+
+    map_grid = sim.config.mapping.map.grid()
+    _, window = OccupancyMap.brick_counts(map_grid, MappingConfig().sensor_range_m)
+    sim.reset(3)
+    sim.occupancy.take_journal()
+    for _ in range(4):
+        sim.step(int(np.flatnonzero(sim.goal_mask())[-1]))
+        assert 0 < sim.occupancy.take_journal().sum() <= np.prod(window)
+
+
+def test_an_episode_estimated_above_the_memory_limit_is_refused_before_it_starts(monkeypatch):
+    import nbv_gym.simulator as simulator
+
+    world = simulator.load_world(WORLD)
+    mapping = SimulatorConfig().mapping
+    monkeypatch.setattr(simulator.Lidar, "for_world", None)  # no work past the check
+    # two scans (a reset and one step) fit, the default 100 steps do not
+    monkeypatch.setattr(
+        simulator, "MAX_EPISODE_BYTES", simulator.episode_memory_bytes(world, mapping, 2)
+    )
+    with pytest.raises(
+        simulator.EpisodeMemoryError,
+        match=r"^an episode of 100 steps on world pp1-cuboids may need 0\.\d GiB, more than "
+        r"the limit of 0\.\d+ GiB \(nbv_gym\.simulator\.MAX_EPISODE_BYTES\); lower "
+        r"episode\.max_steps to 1 or less, or use a smaller placement window$",
+    ):
+        Simulator(SimulatorConfig(world=WORLD))
+    monkeypatch.setattr(simulator, "MAX_EPISODE_BYTES", 300 << 20)  # not even the world
+    with pytest.raises(simulator.EpisodeMemoryError, match=r"window or fewer assets$"):
+        Simulator(SimulatorConfig(world=WORLD))

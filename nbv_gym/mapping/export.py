@@ -36,9 +36,8 @@ def map_voxels(occupancy, min_probability: float = 0.5) -> tuple[FloatArray, Flo
         raise ExportError(f"min probability must be in [0, 1], got {min_probability}")
     from scipy.special import expit
 
-    logodds = occupancy.logodds  # one dense copy; NaN = unknown
-    index = np.argwhere(~np.isnan(logodds))
-    probability = expit(logodds[tuple(index.T)])
+    index, logodds = occupancy.voxels_at_least(0.0)  # the written blocks only
+    probability = expit(logodds)
     keep = probability >= min_probability
     return occupancy.grid.centres(index[keep]), probability[keep]
 

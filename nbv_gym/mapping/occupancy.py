@@ -185,6 +185,17 @@ class OccupancyMap:
         size = np.minimum([2 * half + 1, 2 * half + 1, grid.shape[2]], grid.shape)
         return (-(-size // 8) * 8).astype(np.int64)
 
+    @staticmethod
+    def brick_counts(grid: GridSpec, max_range_m: float) -> tuple[tuple[int, ...], ...]:
+        """The bricks (pages) of a map over ``grid`` along x, y, z, and the most bricks along
+        each axis that the marking window of a sensor of range ``max_range_m`` (the voxels one
+        scan can write) overlaps: one more than it spans, as it need not start on a brick."""
+        box = tuple(-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
+        shape = OccupancyMap._marking_window(grid, max_range_m)
+        window = tuple(min(-(-int(n) // b) + 1, m) for n, b, m in zip(
+            shape, BRICK, box, strict=True))  # fmt: skip
+        return box, window
+
     # ------------------------------------------------------------------ update
 
     def insert(
@@ -340,7 +351,8 @@ class OccupancyMap:
     @property
     def n_known(self) -> int:
         """Number of known voxels."""
-        return int(np.count_nonzero(self._store.view(np.uint32)))
+        blocks = self._store.reshape(-1, math.prod(BRICK))[np.flatnonzero(self._dirty)]
+        return int(np.count_nonzero(blocks.view(np.uint32)))
 
     def memory_bytes(self) -> int:
         """Bytes the map's arrays span (only the store's written pages are resident)."""
@@ -523,20 +535,30 @@ class OccupancyMap:
         self._store[known] = bricked[known]
 
     def voxels_at_least(self, threshold: float) -> tuple[np.ndarray, np.ndarray]:
-        """(n, 3) indices and (n,) float32 log-odds of the known voxels with probability ≥
-        ``threshold`` (≤ 0: all known voxels), in (x, y, z) C order."""
-        bricks = self._brick_view()
-        keep = bricks != 0
+        """(n, 3) int64 indices and (n,) float32 log-odds of the known voxels with probability ≥
+        ``threshold`` (≤ 0: all known voxels), in (x, y, z) C order. Reads only the store's
+        blocks written since the last :meth:`clear` (memory and time follow the observed
+        volume, not the map box)."""
+        blocks = np.flatnonzero(self._dirty)
+        values = self._store.reshape(-1, math.prod(BRICK))[blocks]
+        values = values.reshape(-1, BRICK[2], TILE, TILE, TILE, TILE)
+        keep = values != 0
         if threshold >= 1:
             keep[:] = False
         elif threshold > 0:
-            keep &= bricks >= np.float32(logit(threshold))
-        bz, bx, by, z, tx, ty, x, y = np.nonzero(keep)
+            keep &= values >= np.float32(logit(threshold))
+        block, z, tx, ty, x, y = np.nonzero(keep)
+        bx, by, bz = self._bricks
+        brick_z, brick_x, brick_y = np.unravel_index(blocks[block], (bz, bx, by))
         index = np.column_stack(
-            [(bx * TILE + tx) * TILE + x, (by * TILE + ty) * TILE + y, bz * BRICK[2] + z]
-        )
+            [
+                (brick_x * TILE + tx) * TILE + x,
+                (brick_y * TILE + ty) * TILE + y,
+                brick_z * BRICK[2] + z,
+            ]
+        ).astype(np.int64)
         order = np.lexsort(index.T[::-1])
-        return index[order], decoded(bricks[keep][order])
+        return index[order], decoded(values[keep][order])
 
     def _voxel_offset(self, grid: GridSpec) -> np.ndarray:
         """(3,) int64 index in the map of ``grid``'s first voxel; ConfigError if not aligned."""

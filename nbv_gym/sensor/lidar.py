@@ -177,6 +177,9 @@ class Lidar:
         self.range_noise = range_noise
         self.localisation = localisation
         self.bounds_xy = bounds_xy
+        #: the true sensor pose of the first scan and its cast distances: an episode's first
+        #: scan is taken from the start pose, and every reset casts the same rays again
+        self._first_cast: tuple[tuple[float, ...], np.ndarray] | None = None
 
     @classmethod
     def for_world(
@@ -208,14 +211,25 @@ class Lidar:
         """Scan from the robot's ground pose ``robot``; all randomness is drawn from ``rng``."""
         self._check_pose(robot)
         true_pose = self.sensor_pose(robot)
-        world_directions = self.directions @ true_pose.rotation().T
-        distance = self.scene.cast(true_pose.position, world_directions)
+        distance = self._cast(true_pose)
         ray_index = np.flatnonzero(np.isfinite(distance))
         ranges = distance[ray_index]
         if self.range_noise is not None:
             ranges = self.range_noise.apply(ranges, rng)
         noisy_pose = self.localisation.perturb(true_pose, rng)
         return self._returns(ray_index, ranges, true_pose, noisy_pose)
+
+    def _cast(self, true_pose: Pose) -> np.ndarray:
+        """(m,) float64 distance along each ray from the sensor at ``true_pose`` to the first hit
+        (inf: none); the first pose's distances are kept and given again for that pose."""
+        key = (true_pose.x, true_pose.y, true_pose.z, true_pose.yaw)
+        if self._first_cast is not None and self._first_cast[0] == key:
+            return self._first_cast[1].copy()
+        world_directions = self.directions @ true_pose.rotation().T
+        distance = self.scene.cast(true_pose.position, world_directions)
+        if self._first_cast is None:
+            self._first_cast = (key, distance.copy())
+        return distance
 
     def _returns(
         self, ray_index: IntArray, ranges: FloatArray, true_pose: Pose, noisy_pose: Pose

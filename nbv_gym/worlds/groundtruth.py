@@ -56,32 +56,51 @@ class GroundTruth:
         return index[grid.contains(index)]
 
 
+#: Voxels of one slab of the marking mask in :func:`surface_voxels` (bytes: one bool each).
+SLAB_VOXELS = 1 << 27
+
+
 def surface_voxels(vertices: FloatArray, faces: IntArray, res: float) -> GroundTruth:
-    """The :class:`GroundTruth` of a triangle mesh: (V, 3) ``vertices`` metres, (F, 3) ``faces``."""
-    triangles = np.ascontiguousarray(np.asarray(vertices, np.float64)[faces] / res)
+    """The :class:`GroundTruth` of a triangle mesh: (V, 3) ``vertices`` metres, (F, 3) ``faces``.
+
+    The voxels are marked in x slabs of at most :data:`SLAB_VOXELS` (the mesh's bounding box of a
+    500 m world at 0.1 m would be gigabytes), each slab read out before the next is marked."""
+    triangles = np.asarray(vertices, np.float64)[faces]
+    triangles /= res  # in place: the same values as a new array, without a second copy
     low = np.floor(triangles.reshape(-1, 3).min(axis=0)).astype(np.int64) - 1
     high = np.floor(triangles.reshape(-1, 3).max(axis=0)).astype(np.int64) + 2
-    mask = np.zeros(tuple(high - low), dtype=np.bool_)
-    _mark_triangles(triangles - low, mask)
-    voxels = np.argwhere(mask) + low
-    return GroundTruth(voxels.astype(np.int32), float(res))
+    triangles -= low
+    shape = high - low
+    width = max(1, SLAB_VOXELS // int(shape[1] * shape[2]))
+    x_first = np.floor(triangles[:, :, 0].min(axis=1))
+    x_last = np.floor(triangles[:, :, 0].max(axis=1))
+    parts = []
+    for x0 in range(0, int(shape[0]), width):
+        mask = np.zeros((min(width, int(shape[0]) - x0), shape[1], shape[2]), dtype=np.bool_)
+        inside = np.flatnonzero((x_last >= x0) & (x_first < x0 + len(mask)))
+        _mark_triangles(triangles, inside, mask, x0)
+        parts.append(np.argwhere(mask) + low + [x0, 0, 0])
+    return GroundTruth(np.concatenate(parts).astype(np.int32), float(res))
 
 
 @numba.njit(cache=True)
-def _mark_triangles(triangles, mask):
-    """Mark in ``mask`` every unit voxel whose interior meets a triangle (coordinates in voxels)."""
-    for t in range(triangles.shape[0]):
+def _mark_triangles(triangles, chosen, mask, x0):
+    """Mark in ``mask`` every unit voxel whose interior meets one of the ``chosen`` triangles
+    (coordinates in voxels), ``mask[i - x0]`` holding voxel ``i`` along x (a slab of the whole
+    mask)."""
+    for t in chosen:
         tri = triangles[t]
         lo = np.empty(3, np.int64)
         hi = np.empty(3, np.int64)
         for a in range(3):
-            lo[a] = max(int(np.floor(tri[:, a].min())), 0)
-            hi[a] = min(int(np.floor(tri[:, a].max())), mask.shape[a] - 1)
+            first = x0 if a == 0 else 0
+            lo[a] = max(int(np.floor(tri[:, a].min())), first)
+            hi[a] = min(int(np.floor(tri[:, a].max())), first + mask.shape[a] - 1)
         for i in range(lo[0], hi[0] + 1):
             for j in range(lo[1], hi[1] + 1):
                 for k in range(lo[2], hi[2] + 1):
-                    if not mask[i, j, k] and _overlaps(tri, i + 0.5, j + 0.5, k + 0.5):
-                        mask[i, j, k] = True
+                    if not mask[i - x0, j, k] and _overlaps(tri, i + 0.5, j + 0.5, k + 0.5):
+                        mask[i - x0, j, k] = True
 
 
 @numba.njit(cache=True)

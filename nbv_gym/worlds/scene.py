@@ -7,6 +7,10 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray, IntArray
 
+#: The distance embreex reports for a ray that hits nothing (its initial ``tfar``); no hit in a
+#: world is that far.
+_NO_HIT = np.float32(1e37)
+
 
 class RayScene:
     """Embree ray casting against a triangle mesh (embreex).
@@ -39,7 +43,9 @@ class RayScene:
         """(n,) float64 distance along each (n, 3) unit direction from each (n, 3) origin to the
         first hit, ``inf`` where the ray hits nothing."""
         origins = np.ascontiguousarray(np.broadcast_to(origins, directions.shape), np.float32)
-        result = self._scene.run(origins, np.ascontiguousarray(directions, np.float32), output=1)
-        distance = result["tfar"].astype(np.float64)
-        distance[result["geomID"] < 0] = np.inf
+        tfar = self._scene.run(
+            origins, np.ascontiguousarray(directions, np.float32), query="DISTANCE"
+        )  # the hit distances only (no hit: embreex's initial tfar), without u, v and normals
+        distance = tfar.astype(np.float64)
+        distance[tfar >= _NO_HIT] = np.inf
         return distance

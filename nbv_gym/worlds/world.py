@@ -150,23 +150,49 @@ def load_world(
 ) -> World:
     """The world of a benchmark name, a spec file path or a :class:`WorldSpec`, loaded from the
     cache when built before (and built, then cached, otherwise; ``rebuild``: built again, the
-    cached file replaced atomically)."""
+    cached file replaced atomically).
+
+    Processes that want the same uncached world at once (the workers of a sweep or a score)
+    build it once: the builder holds a lock file beside the cache file, the others wait for it,
+    then read what it cached."""
     spec = name_or_path if isinstance(name_or_path, WorldSpec) else load_spec(name_or_path)
+    if not cache:
+        return _build(spec, None)
     path = cache_path(spec)
-    if cache and not rebuild and path.exists():
-        try:
-            return _read(path, spec)
-        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
-            path.unlink(missing_ok=True)  # a corrupt or partial file: rebuild it
+    if not rebuild and (world := _cached(path, spec)) is not None:
+        return world
+    from filelock import FileLock
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with FileLock(path.with_suffix(".lock")):
+        if not rebuild and (world := _cached(path, spec)) is not None:
+            return world  # another process built it while this one waited
+        return _build(spec, path)
+
+
+def _cached(path: Path, spec: WorldSpec) -> World | None:
+    """The world cached at ``path``, or None when there is none (a corrupt or partial file is
+    removed, to be rebuilt)."""
+    if not path.exists():
+        return None
+    try:
+        return _read(path, spec)
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
+        path.unlink(missing_ok=True)
+        return None
+
+
+def _build(spec: WorldSpec, path: Path | None) -> World:
+    """Build the world of ``spec`` and write it to the cache file ``path`` (None: not cached)."""
     say_if_compiling()
     say(f"building world {spec.name} (mesh + ground truth), once per spec…")
     start = time.perf_counter()
     world = build_world(spec)
-    if cache:
+    if path is not None:
         _write(path, world)
     say(
         f"world {spec.name} built in {time.perf_counter() - start:.0f} s"
-        + (f", cached in {path}" if cache else "")
+        + (f", cached in {path}" if path is not None else "")
     )
     return world
 

@@ -214,3 +214,26 @@ def test_probability_blocks_equal_the_probability_grid():
         np.testing.assert_array_equal(block, expected)
     assert np.all(blocks[2] == 0.5)  # never observed
     assert set(np.unique(blocks[0])) >= {np.float32(0.5), np.float32(0.4)}
+
+
+def test_known_voxels_read_from_the_written_blocks_equal_the_dense_map():
+    rng = np.random.default_rng(7)
+    occupancy = small_map()
+    for episode in range(2):  # the second after a clear: blocks of the first are unknown again
+        for _ in range(6):
+            points = ORIGIN + rng.uniform(-3.0, 3.0, (300, 3)) * [1, 0.6, 0.3]
+            occupancy.insert(ORIGIN + rng.uniform(-0.5, 0.5, 3) * [1, 1, 0.2], points)
+        lo = occupancy.logodds
+        for threshold in (0.0, 0.3, 0.5, 0.7, 1.0):
+            keep = ~np.isnan(lo)
+            if threshold >= 1:
+                keep[:] = False
+            elif threshold > 0:
+                keep &= lo >= np.float32(math.log(threshold / (1 - threshold)))
+            index, logodds = occupancy.voxels_at_least(threshold)
+            np.testing.assert_array_equal(index, np.argwhere(keep))
+            np.testing.assert_array_equal(logodds, lo[keep])
+        assert occupancy.n_known == np.count_nonzero(~np.isnan(lo)) > 0
+        if episode == 0:
+            occupancy.clear()
+            assert occupancy.n_known == 0 and len(occupancy.voxels_at_least(0.0)[0]) == 0

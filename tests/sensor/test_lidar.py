@@ -151,3 +151,17 @@ def test_a_pose_outside_the_world_is_refused(pose):
     lidar = make_lidar(wall_mesh(5.0), bounds=((-32.0, -32.0), (32.0, 32.0)))
     with pytest.raises(PoseError, match=r"outside the world|finite"):
         lidar.scan(pose, np.random.default_rng(0))
+
+
+def test_the_first_poses_cast_is_reused_bit_for_bit():
+    mesh = shapes.concatenate([shapes.place(shapes.helicoid(), (4.0, 1.0), 0.3, 1.0, 1.0)])
+    start, other = Pose(0.0, 0.0, 0.0, 0.2), Pose(1.0, -0.5, 0.0, 1.1)
+    lidar, fresh = make_lidar(mesh, RangeNoise()), make_lidar(mesh, RangeNoise())
+    first = lidar.scan(start, np.random.default_rng(5))
+    first.points_sensor[:] = 0.0  # a caller's edits do not reach what is kept
+    lidar.scan(other, np.random.default_rng(6))
+    again = lidar.scan(start, np.random.default_rng(7))
+    expected = fresh.scan(start, np.random.default_rng(7))
+    assert len(again) > 100
+    for name in ("points_sensor", "ranges", "ray_index", "points_map"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(expected, name))

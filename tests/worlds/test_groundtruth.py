@@ -80,3 +80,15 @@ def test_grid_voxels_are_the_occupied_cells_of_the_grid_in_c_order():
     )
     with pytest.raises(ConfigError, match="lattice"):
         truth.grid_voxels(GridSpec((0.05, 0.0, 0.0), 0.1, (4, 4, 4)))
+
+
+def test_surface_voxels_marked_in_slabs_equal_one_mask(monkeypatch):
+    from nbv_gym.worlds import groundtruth, shapes
+
+    poses = (((0.3, 0.2), 0.4), ((4.1, -1.7), 2.0))
+    mesh = shapes.concatenate([shapes.place(shapes.helicoid(), *pose, 1.1, 0.9) for pose in poses])
+    whole = groundtruth.surface_voxels(*mesh, 0.1)
+    monkeypatch.setattr(groundtruth, "SLAB_VOXELS", 1)  # one x layer per slab
+    np.testing.assert_array_equal(groundtruth.surface_voxels(*mesh, 0.1).voxels, whole.voxels)
+    monkeypatch.setattr(groundtruth, "SLAB_VOXELS", 7 * 60 * 80)
+    np.testing.assert_array_equal(groundtruth.surface_voxels(*mesh, 0.1).voxels, whole.voxels)

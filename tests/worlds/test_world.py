@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import os
 import subprocess
 import sys
 
@@ -142,3 +143,39 @@ def test_unknown_world_suggests_and_lists():
 def test_malformed_spec_names_the_field(text, message):
     with pytest.raises(ConfigError, match=message):
         parse_spec(text, "my.toml")
+
+
+#: One process of the concurrent-build test: waits until ``go`` exists, then loads the world of
+#: ``spec`` from the (cold) cache, with the phase messages on stderr.
+_LOAD_AFTER_GO = """
+import sys, time
+from pathlib import Path
+from nbv_gym.core.progress import speak_on_stderr
+from nbv_gym.worlds import load_world
+speak_on_stderr()
+spec, go = sys.argv[1], Path(sys.argv[2])
+while not go.exists():
+    time.sleep(0.01)
+load_world(spec)
+"""
+
+
+def test_two_processes_on_a_cold_cache_build_a_world_once(tmp_path):
+    spec = tmp_path / "concurrent.toml"
+    spec.write_text(VALID_SPEC.replace('"tiny"', '"concurrent"').replace("6", "40"))
+    go = tmp_path / "go"
+    env = {**os.environ, "NBV_GYM_CACHE": str(tmp_path / "cache")}
+    workers = [
+        subprocess.Popen(
+            [sys.executable, "-c", _LOAD_AFTER_GO, str(spec), str(go)],
+            env=env,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for _ in range(2)
+    ]
+    go.touch()  # both start loading at the same moment
+    stderr = [worker.communicate(timeout=300)[1] for worker in workers]
+    assert [worker.returncode for worker in workers] == [0, 0], stderr
+    assert sum(text.count("building world concurrent") for text in stderr) == 1, stderr
+    assert len(list((tmp_path / "cache" / "worlds").glob("concurrent-*.npz"))) == 1

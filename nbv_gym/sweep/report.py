@@ -46,7 +46,6 @@ from nbv_gym.sweep.tables import (
 
 #: Policies whose runs Table II is computed on (paper §IV-C: no bias from the statistics).
 UNBIASED_POLICIES = ("random-frontier", "random-free")
-ALPHA = 0.05
 FIG1_NOISE = 1  # the paper shows Fig. 1 for noise level 1
 
 
@@ -295,7 +294,8 @@ def _indicator_section(ok, data: Results, out: Path) -> str:
 
 
 def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> str:
-    from nbv_gym.sweep.verdict import verdict_section, verdict_table
+    from nbv_gym.sweep.tables import verdict_section
+    from nbv_gym.sweep.verdict import verdict_table
 
     ok = ok[~ok["policy"].map(is_oracle_label)]  # the paper's claims concern its policies
     levels = sorted(ok["noise"].unique())

@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -60,18 +59,15 @@ from nbv_gym.reporting.inference import (
     bootstrap_mean,
     can_reach,
     holm,
-    power_note,
     smallest_p_spearman,
     smallest_p_wilcoxon,
 )
 from nbv_gym.reporting.verdicts import (
-    INCONCLUSIVE,
     NO_DATA,
     NO_PAPER_VALUE,
     NOT_REPRODUCED,
     PARTLY,
     REPRODUCED,
-    count_summary,
     inconclusive,
 )
 from nbv_gym.worlds import ASSET_TYPES
@@ -517,103 +513,3 @@ def _p(value: float) -> str:
     if not np.isfinite(value):
         return "—"
     return "< 1e-16" if value < 1e-16 else f"{value:.3g}"
-
-
-def verdict_section(table, out: Path) -> str:
-    """The report's verdict section (writes ``verdict.csv``): the rules, the per-model summary
-    when the NBV policies fix visibility models, the table, and a power note where the Fig. 2
-    tests cannot reach significance."""
-    table.to_csv(out / "verdict.csv", index=False)
-    summary = count_summary(table["verdict"])
-    lines = [
-        "## Reproduction verdict",
-        "",
-        f"Each claim of the paper, computed from this sweep's tables ({summary}). Fig. 1 trends "
-        "on the observed cuboids (n_obs ≥ 1) at noise level 1; Fig. 2 at noise level 0 (the "
-        "paper's figure) when the sweep has it. Fig. 2 rows: one-sided Wilcoxon signed-rank "
-        "tests at 50, 60 and 70 % discovered, p Holm-adjusted over the Fig. 2 family (every "
-        "pair and fraction), the effect the mean difference with its 95 % bootstrap interval. "
-        "A claim is *reproduced* only with the paper's sign, never *partly* with a mean effect "
-        "of the wrong sign, and *inconclusive (n = …)* where the sample cannot reach p < 0.05 "
-        "at all. Rules: `nbv_gym/sweep/verdict.py` (docs: verdicts). Table: `verdict.csv`.",
-    ]
-    note = _power_note(table)
-    if note:
-        lines += ["", note]
-    if table["model"].replace("—", "").astype(bool).any():
-        lines += ["", "### Per visibility model", "", model_summary(table)]
-    lines += ["", *verdict_tables(table)]
-    return "\n".join(lines)
-
-
-#: The columns of the verdict tables of the report, in order.
-SHOWN = ["claim", "paper", "n", "test", "p", "effect", "ours", "verdict"]
-#: Columns said once above a table when every row of it has the same value.
-SAID_ONCE = ("paper", "test")
-
-
-def verdict_tables(table) -> list[str]:
-    """The verdict rows as Markdown, one table per family of claims (the claim's figure, e.g.
-    ``Fig. 1`` or ``[fov] Budget``) and test, in order of appearance: the paper's statement and
-    the test, when every row of a table shares them, are said once above it instead of on every
-    row; a column with nothing in it (every cell "—") is left out. Lines."""
-    from nbv_gym.reporting.formatting import markdown_table
-
-    family = table["claim"].str.split(":").str[0]
-    lines: list[str] = []
-    for (name, _), group in table.groupby([family, table["test"]], sort=False):
-        said = [c for c in SAID_ONCE if group[c].nunique() == 1 and group[c].iloc[0] != "—"]
-        lead = f"**{name}**" + "".join(f" — {c}: {group[c].iloc[0]}" for c in said)
-        empty = [c for c in SHOWN if (group[c].astype(str) == "—").all()]  # nothing to show
-        shown = [c for c in SHOWN if c not in said and c not in empty]
-        lines += [lead, "", markdown_table(shown, group[shown].to_numpy().tolist()), ""]
-    return lines[:-1]
-
-
-def model_summary(table) -> str:
-    """Per visibility model: how many Fig. 2 comparisons are significantly higher (Holm) at
-    each fraction, and the verdicts of its Fig. 2 and budget rows, as a Markdown table."""
-    from nbv_gym.reporting.formatting import markdown_table
-
-    rows = []
-    for model, group in table[table["model"] != "—"].groupby("model", sort=False):
-        fig2 = group[group["claim"].str.contains("] Fig. 2: nbv-", regex=False)]
-        budget = group[group["claim"].str.contains("] Budget:", regex=False)]
-        higher = [
-            sum(_significant(row.p, f"{f:.0%}") for row in fig2.itertuples()) for f in FRACTIONS
-        ]
-        rows.append(
-            [
-                model,
-                len(fig2),
-                *(f"{h}/{len(fig2)}" for h in higher),
-                count_summary(fig2["verdict"]) or "—",
-                count_summary(budget["verdict"]) or "—",
-            ]
-        )
-    header = ["model", "comparisons", *(f"higher at {f:.0%} (Holm p < 0.05)" for f in FRACTIONS)]
-    return markdown_table([*header, "Fig. 2 verdicts", "budget verdicts"], rows)
-
-
-def _significant(p_cell: str, point: str) -> bool:
-    """Whether the ``p`` cell of a comparison row gives p < α at ``point`` (``"60%: 0.012"``)."""
-    for part in str(p_cell).split("; "):
-        label, _, value = part.partition(": ")
-        if label == point:
-            if value.startswith("<"):
-                return True
-            try:
-                return float(value) < ALPHA
-            except ValueError:
-                return False
-    return False
-
-
-def _power_note(table) -> str:
-    """The power note of the Fig. 2 rows when none of them can reach significance."""
-    fig2 = table[table["claim"].str.contains("Fig. 2: nbv-", regex=False)]
-    if fig2.empty or not fig2["verdict"].str.startswith(INCONCLUSIVE).all():
-        return ""
-    n = max(int(str(v).split("–")[-1]) for v in fig2["n"] if str(v)[0].isdigit())
-    family = len(fig2) // max(fig2["model"].nunique(), 1) * len(FRACTIONS)  # one per model
-    return power_note(smallest_p_wilcoxon(n, "greater"), family, "one-sided Wilcoxon test")

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from nbv_gym.reporting.verdicts import NOT_REPRODUCED
+from nbv_gym.sweep.tables import verdict_section
 from nbv_gym.sweep.verdict import (
     comparison_rows,
     harder_row,
@@ -14,7 +15,6 @@ from nbv_gym.sweep.verdict import (
     table2_rows,
     trend_rows,
     verdict,
-    verdict_section,
     verdict_table,
 )
 from nbv_gym.worlds import ASSET_TYPES
@@ -215,7 +215,8 @@ def test_fig1_trends_add_a_run_level_test_beside_the_cuboid_level_one():
 def test_the_verdict_tables_say_a_shared_description_once():
     """Rows of one test that share the paper's statement and the test show them once above
     their table, not on every row; a column that varies stays in the table."""
-    from nbv_gym.sweep.verdict import COLUMNS, verdict_tables
+    from nbv_gym.sweep.tables import verdict_tables
+    from nbv_gym.sweep.verdict import COLUMNS
 
     rows = [
         {"claim": f"Fig. 1: c{i}", "paper": "same claim", "n": "3", "test": "test A", "p": "0.1",

@@ -29,6 +29,8 @@ from nbv_gym.nbv.visibility import VISIBILITY_MODELS
 
 #: The statistics an NBV policy can use, as in the layer names ``gain_<statistic>``.
 STATISTICS: tuple[str, ...] = ("nobs", "rmin", "nomega", "sigma")
+#: α, the weight of the travel cost (the cost layer: path length / the planner's cost range).
+DEFAULT_ALPHA = 2.0
 
 
 class NbvPolicy:
@@ -45,7 +47,7 @@ class NbvPolicy:
     def __init__(
         self,
         statistic: str,
-        alpha: float = 2.0,
+        alpha: float = DEFAULT_ALPHA,
         uniform_tolerance: float = 0.05,
         visibility: str | None = None,
     ):
@@ -94,29 +96,29 @@ class NbvPolicy:
 class NbvNobs(NbvPolicy):
     """``nbv-nobs``: gain in the number of observations."""
 
-    def __init__(self, visibility: str | None = None) -> None:
-        super().__init__("nobs", visibility=visibility)
+    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+        super().__init__("nobs", alpha=alpha, visibility=visibility)
 
 
 class NbvRmin(NbvPolicy):
     """``nbv-rmin``: gain in the smallest observation range."""
 
-    def __init__(self, visibility: str | None = None) -> None:
-        super().__init__("rmin", visibility=visibility)
+    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+        super().__init__("rmin", alpha=alpha, visibility=visibility)
 
 
 class NbvNomega(NbvPolicy):
     """``nbv-nomega``: gain in the number of azimuth sectors observed from."""
 
-    def __init__(self, visibility: str | None = None) -> None:
-        super().__init__("nomega", visibility=visibility)
+    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+        super().__init__("nomega", alpha=alpha, visibility=visibility)
 
 
 class NbvSigma(NbvPolicy):
     """``nbv-sigma``: gain in the spherical variance of the viewing directions."""
 
-    def __init__(self, visibility: str | None = None) -> None:
-        super().__init__("sigma", visibility=visibility)
+    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+        super().__init__("sigma", alpha=alpha, visibility=visibility)
 
 
 def near_uniform(gains: np.ndarray, tolerance: float) -> bool:

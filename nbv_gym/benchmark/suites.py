@@ -45,6 +45,7 @@ from nbv_gym.core.protocol import (
     check_task,
     task_episode,
 )
+from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config, lidar_preset
 from nbv_gym.worlds.spec import WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
@@ -77,9 +78,11 @@ class Part:
     budget_scans: int = BUDGET_SCANS
     max_steps: int = EXPLORE_MAX_STEPS
     time_budget_s: float = TIME_BUDGET_S
+    lidar: str = DEFAULT_LIDAR
 
     def __post_init__(self) -> None:
         check_task(self.task)
+        lidar_preset(self.lidar)
 
     @property
     def metric(self) -> str:
@@ -106,7 +109,8 @@ class Part:
         config = EnvConfig()
         episode = replace(config.simulator.episode, max_steps=self.max_steps)
         episode = task_episode(self.task, episode, self.budget_scans, self.time_budget_s)
-        return replace(config, simulator=replace(config.simulator, episode=episode))
+        simulator = replace(config.simulator, episode=episode, lidar=lidar_config(self.lidar))
+        return replace(config, simulator=simulator)
 
     def description(self) -> dict[str, Any]:
         """The part as plain data for the scorecard."""
@@ -121,6 +125,8 @@ class Part:
             "max_steps": self.max_steps if self.task == "explore" else None,
             "time_budget_s": self.time_budget_s if self.task == "time" else None,
             "runs": self.runs,
+            # only another preset is named: the benchmark's scorecards keep their content
+            **({"lidar": self.lidar} if self.lidar != DEFAULT_LIDAR else {}),
         }
 
 
@@ -136,6 +142,11 @@ class Suite:
     @property
     def runs(self) -> int:
         return sum(part.runs for part in self.parts)
+
+    def with_lidar(self, lidar: str) -> Suite:
+        """This suite run with the lidar preset ``lidar`` (:mod:`nbv_gym.sensor.presets`); its
+        content hash changes unless it is the default, so its scorecards rank apart."""
+        return replace(self, parts=tuple(replace(part, lidar=lidar) for part in self.parts))
 
     def part(self, split: str) -> Part:
         return next(p for p in self.parts if p.split == split)

@@ -11,6 +11,7 @@ import typer
 
 from nbv_gym.cli.options import (
     BudgetScansOption,
+    LidarOption,
     MaxStepsOption,
     ScanTimeOption,
     SpeedOption,
@@ -191,6 +192,7 @@ def run(
     time_budget_s: TimeBudgetOption = None,
     speed_mps: SpeedOption = None,
     scan_time_s: ScanTimeOption = None,
+    lidar: LidarOption = None,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
     force: Annotated[
@@ -219,22 +221,26 @@ def run(
       nbv-gym run --policy my_module:MyPolicy --world my_world.toml \\
           --no-animation --json
       nbv-gym run --world pp1-trees --out runs/cf --force
+      nbv-gym run --world pp1-trees --lidar vlp-16 --out runs/vlp16
     """
 
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import is_oracle, load_policy
+    from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config
     from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.worlds import load_spec
 
+    lidar = lidar or DEFAULT_LIDAR
+    sensor = lidar_config(lidar)  # an unknown preset fails first
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
     episode = task_episode_config(
         task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
     )
     run_files = _check_run_folder(out, force)  # a bad --out fails before the world is built
     agent = load_policy(policy)
-    simulator = SimulatorConfig(world=world, noise=noise, episode=episode)
+    simulator = SimulatorConfig(world=world, noise=noise, lidar=sensor, episode=episode)
     load_spec(world)  # a bad world name or spec fails before the world is built
     env = make_env(EnvConfig(simulator), agent, render=animation)
     claim_folder(out, "run")
@@ -253,7 +259,7 @@ def run(
     with staged_folder(out, run_files) as staging:  # a crash leaves an earlier run intact
         result = _episode_of(run_episode, env, agent, seed, report, policy)
         meta = {"world": world, "policy": policy, "oracle": oracle, "noise": noise,
-                "seed": seed, "task": task}  # fmt: skip
+                "seed": seed, "task": task, "lidar": lidar}  # fmt: skip
         summary = write_run_folder(staging, env, result, meta)
         if frames:
             from nbv_gym.env.render import save_animation
@@ -265,7 +271,7 @@ def run(
     final = result.final
     typer.echo(
         f"{policy}{' (oracle)' if oracle else ''} on {world} ({task} task, noise {noise}, "
-        f"seed {seed}): {final['step']} steps, "
+        f"seed {seed}, lidar {lidar}): {final['step']} steps, "
         f"discovered {final['discovered']:.1%}, Q {final['q']:.4f}, "
         f"Q_paper {final['q_paper']:.4f}, path {final['path_length_m']:.1f} m, "
         f"robot time {final['elapsed_s']:.1f} s, {result.wall_time_s:.1f} s wall — "

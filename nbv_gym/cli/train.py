@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from nbv_gym.cli.options import LidarOption
 from nbv_gym.cli.params import COUNT, POSITIVE, POSITIVE_COUNT
 
 
@@ -37,6 +38,7 @@ def train(
         typer.Option(help="Parallel environments (overrides n_envs).", parser=POSITIVE_COUNT),
     ] = None,
     seed: Annotated[int | None, typer.Option(help="Seed (overrides seed).", parser=COUNT)] = None,
+    lidar: LidarOption = None,
     scheduler: Annotated[
         str | None,
         typer.Option(
@@ -87,6 +89,7 @@ def train(
       nbv-gym train --config ppo --timesteps 5000 \\
           --out runs/ppo-short
       nbv-gym train --config ppo --eval-every 2000
+      nbv-gym train --config ppo --lidar vlp-16 --out runs/ppo-vlp16
       nbv-gym train --config ppo --n-envs 16 \\
           --device cuda --time-limit 9
       nbv-gym train --config ppo --scheduler local --n-envs 4
@@ -104,7 +107,7 @@ def train(
 
     overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
                  "eval_every_steps": eval_every, "device": device,
-                 "scheduler": scheduler}  # fmt: skip
+                 "scheduler": scheduler, "lidar": lidar}  # fmt: skip
     config_path = config_file(config, "train")
     settings = load_train_config(config_path, overrides)
     out = claim_folder(out or Path("runs") / config_path.stem, "train")

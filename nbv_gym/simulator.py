@@ -29,6 +29,7 @@ from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary
 from nbv_gym.metrics.tracker import QualityTracker
 from nbv_gym.sensor.lidar import Lidar, LidarConfig, Scan
 from nbv_gym.worlds import World, load_spec, load_world
+from nbv_gym.worlds.scenes import SceneSpec
 
 
 class InvalidActionError(NbvGymError, ValueError):
@@ -110,11 +111,14 @@ class Simulator:
     def __init__(self, config: SimulatorConfig | None = None, world: World | None = None):
         config = config or SimulatorConfig()
         spec = world.spec if world is not None else load_spec(config.world)
-        config = replace(config, mapping=config.mapping.fitted(spec.placement.window_m))
+        if world is None and isinstance(spec, SceneSpec):  # its window is the built scene's
+            world = load_world(spec)
+        window = world.window_m if world is not None else spec.window_m
+        config = replace(config, mapping=config.mapping.fitted(window))
         self.config = config  # with the map box and G fitted to the world
         say_if_compiling()
         self.goal_grid = self.config.mapping.statistics.grid()
-        self._check_world(spec)
+        self._check_world(world or spec)
         self.world = world or load_world(spec)
         self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
         self.voxel_grid = _refine(self.goal_grid, self.config.mapping.map.resolution_m)
@@ -135,19 +139,21 @@ class Simulator:
         """Explore ``world`` from the next :meth:`reset` on (e.g. a world distribution's next
         draw), keeping this simulator's grids and map arrays; the previous world's scene and
         ground truth are released. ConfigError unless its placement window lies in G."""
-        self._check_world(world.spec)
+        self._check_world(world)
         self.world = world
         self.lidar = Lidar.for_world(world, self.config.lidar, self.config.noise)
         self.quality = self._quality_tracker(world)
         self._unobserved = self.summary = self.quality.summary()
         self.state = None
 
-    def _check_world(self, spec) -> None:
+    def _check_world(self, world) -> None:
+        """ConfigError unless the window of ``world`` (a built world or a procedural spec) lies
+        in G."""
         low, high = tuple(self.goal_grid.low[:2]), tuple(self.goal_grid.high[:2])
         mapping = self.config.mapping
         fits = f"fitted to windows of at most mapping.max_window_m = {mapping.max_window_m:g} m"
         what = fits if mapping.fit_to_world else "mapping.fit_to_world = false"
-        spec.check_inside(low, high, f"the goal grid (mapping.statistics; {what})")
+        world.check_inside(low, high, f"the goal grid (mapping.statistics; {what})")
 
     @property
     def n_goals(self) -> int:

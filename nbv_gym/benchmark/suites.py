@@ -46,7 +46,7 @@ from nbv_gym.core.protocol import (
     task_episode,
 )
 from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config, lidar_preset
-from nbv_gym.worlds.spec import WorldSpec, load_spec
+from nbv_gym.worlds.spec import AnySpec, WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
 #: different versions are never compared.
@@ -97,7 +97,7 @@ class Part:
     def runs(self) -> int:
         return len(self.worlds) * len(self.noise) * self.repeats
 
-    def specs(self) -> tuple[WorldSpec, ...]:
+    def specs(self) -> tuple[AnySpec, ...]:
         """The world specs of the part (benchmark names loaded)."""
         return tuple(w if isinstance(w, WorldSpec) else load_spec(w) for w in self.worlds)
 

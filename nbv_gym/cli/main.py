@@ -20,7 +20,7 @@ from nbv_gym.cli.options import (
     task_episode_config,
     task_of,
 )
-from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL
+from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL, POSITIVE
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import describe_os_error
@@ -76,7 +76,7 @@ app = _App(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 worlds_app = typer.Typer(
-    help="List, build and preview the benchmark worlds.",
+    help="List, build and preview the benchmark worlds; import your own scene.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -152,6 +152,49 @@ def worlds_build(
                 f"{len(world.ground_truth.voxels):,} ground-truth voxels → {cache_path(spec)}"
             )
             bar.update()
+
+
+@worlds_app.command("import")
+def worlds_import(
+    file: Annotated[Path, typer.Argument(help="Mesh (OBJ PLY STL OFF GLB GLTF) or point cloud.")],
+    out: Annotated[Path, typer.Option(help="World spec file to write (.toml).")],
+    name: Annotated[str | None, typer.Option(help="World name [default: the file's stem].")] = None,
+    scale: Annotated[
+        float | None,
+        typer.Option(help="File units to metres [default: detected].", parser=POSITIVE),
+    ] = None,
+    up: Annotated[
+        str | None, typer.Option(help="The file's up axis, z or y [default: y for GLB/GLTF].")
+    ] = None,
+    ground: Annotated[
+        str, typer.Option(help="add: a ground plane at the lowest point; mesh: the file's own.")
+    ] = "add",
+    force: Annotated[bool, typer.Option(help="Overwrite an existing spec file.")] = False,
+) -> None:
+    """Write the world spec of your own scene (detected units, bounds and counts in it) and build
+    the world into the cache; then run it like any world. Nothing is written when the file
+    cannot make a world.
+
+    Examples:
+
+    \b
+      nbv-gym worlds import park.glb --out park.toml
+      nbv-gym worlds import scan.ply --out scan.toml --scale 0.001 --up z
+      nbv-gym worlds preview park.toml --out park.png
+      nbv-gym run --world park.toml --out runs/park
+    """
+    from nbv_gym.core.outputs import OutputError, writable_file
+    from nbv_gym.worlds.scenes.importer import import_scene
+
+    if out.exists() and not force:
+        raise OutputError(
+            f"--out {out} exists; pass --force to overwrite it, or give another path."
+        )
+    if out.suffix != ".toml":
+        raise typer.BadParameter(f"expected a .toml file, got {out}", param_hint="--out")
+    writable_file(out)
+    for line in import_scene(file, out, name, scale, up, ground):
+        typer.echo(line)
 
 
 @worlds_app.command("preview")

@@ -38,6 +38,13 @@ def score(
         ),
     ] = None,
     lidar: LidarOption = None,
+    world: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Run the suite's budget and explore parts on this world instead (a spec file, "
+            "e.g. your own scene; repeat for several); its scorecards rank apart."
+        ),
+    ] = None,
     progress: Annotated[bool, typer.Option(help="Show progress bars on stderr.")] = True,
 ) -> None:
     """Score a policy on a fixed evaluation suite and write OUT/scorecard.json and scorecard.md.
@@ -58,6 +65,8 @@ def score(
       nbv-gym score closest-frontier --suite quick --out scores/cf-quick
       nbv-gym score my_policies:MyPolicy --out scores/mine --workers 2
       nbv-gym score nbv-sigma --out scores/sigma --scheduler tls://HOST:8786
+      nbv-gym score closest-frontier --suite quick --world park.toml \\
+          --out scores/cf-park
       nbv-gym score closest-frontier --suite quick --lidar vlp-16 \\
           --out scores/cf-vlp16
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
@@ -72,6 +81,7 @@ def score(
     check(workers is None or workers >= 1, "--workers", f"must be ≥ 1, got {workers}")
     check_scheduler(scheduler)
     chosen = get_suite(suite) if lidar is None else get_suite(suite).with_lidar(lidar)
+    chosen = chosen.with_worlds(_absolute(world)) if world else chosen
     with resumable(out / "parts"):
         card = score_policy(
             policy, chosen, out, workers, progress, (os.getcwd(),), scheduler=scheduler
@@ -79,6 +89,11 @@ def score(
     for split, agg in card["aggregates"].items():
         typer.echo(f"{split:<14} {agg['metric']:<11} IQM {interval_text(agg['all'], 'iqm')}")
     typer.echo(f"scorecard: {out / 'scorecard.json'} ({card['timing']['wall_time_s']:.0f} s)")
+
+
+def _absolute(worlds: list[str]) -> tuple[str, ...]:
+    """Spec file paths made absolute (benchmark names kept): the runs read them elsewhere."""
+    return tuple(str(Path(w).resolve()) if w.endswith(".toml") else w for w in worlds)
 
 
 def leaderboard(

@@ -111,7 +111,7 @@ class World:
 def build_world(spec: AnySpec) -> World:
     """Generate the world of ``spec`` (meshes, layout, ground truth); no caching."""
     if isinstance(spec, SceneSpec):
-        built = build_scene(spec, GROUND_TRUTH_RES_M)
+        built = build_scene(spec, RESOLUTION_M)
         return World(spec, built.vertices, built.faces, built.scene_faces, empty_layout(),
                      built.ground_truth, built.frame)  # fmt: skip
     placed = layout(spec.placement, spec.assets)

@@ -10,8 +10,9 @@ import pytest
 import trimesh
 
 from nbv_gym.core.errors import ConfigError
+from nbv_gym.core.protocol import RESOLUTION_M as GROUND_TRUTH_RES_M
 from nbv_gym.worlds import load_spec, load_world, shapes, surface_voxels
-from nbv_gym.worlds.world import GROUND_TRUTH_RES_M, cache_path
+from nbv_gym.worlds.world import cache_path
 
 #: Axis-aligned boxes in units of 5 cm (odd numbers: faces midway between voxel boundaries),
 #: (x0, x1, y0, y1, z1); every box stands on z = 0.
@@ -85,20 +86,18 @@ def test_y_up_and_millimetres_give_the_same_world(tmp_path):
     plain = load_world(write_spec(tmp_path, "z.obj"), cache=False)
     turned = load_world(write_spec(tmp_path, "y.glb", up="y", scale=0.001), cache=False)
     assert np.array_equal(plain.ground_truth.voxels, turned.ground_truth.voxels)
-    assert turned.window_m == pytest.approx(plain.window_m)
+    assert turned.frame == plain.frame
 
 
-def test_the_window_fits_the_scene_and_the_ground_reaches_beyond_it(tmp_path):
+def test_a_small_scene_stands_in_the_benchmarks_window_and_ground(tmp_path):
     scene().export(tmp_path / "s.obj")
     world = load_world(write_spec(tmp_path, "s.obj"), cache=False)
     (cx, cy), radius = CYLINDER[:2]
     xs = [v * 0.05 for b in BOXES for v in b[:2]] + [cx + radius, cx - radius]
     ys = [v * 0.05 for b in BOXES for v in b[2:4]] + [cy + radius, cy - radius]
-    assert world.window_m == pytest.approx((min(xs), min(ys), max(xs), max(ys)))
-    (gx0, gy0), (gx1, gy1) = world.ground_bounds_xy
-    assert (gx0, gy0, gx1, gy1) == pytest.approx(
-        (min(xs) - 2, min(ys) - 2, max(xs) + 2, max(ys) + 2)
-    )
+    assert world.window_m == (-30.0, -30.0, 30.0, 30.0)  # the smallest: the benchmark's
+    assert -30 < min(xs) and max(xs) < 30 and -30 < min(ys) and max(ys) < 30
+    assert world.ground_bounds_xy == ((-32.0, -32.0), (32.0, 32.0))
     ground = world.vertices[world.faces[world.asset_faces :]].reshape(-1, 3)
     assert np.all(ground[:, 2] == 0.0) and len(world.faces) == world.asset_faces + 2
 
@@ -168,6 +167,9 @@ def test_the_environment_explores_a_scene_world_with_its_goal_grid_fitted(tmp_pa
     env = ExploreEnv(world=write_spec(tmp_path, "far.obj"), max_steps=2)
     _, info = env.reset(seed=0)
     grid = env.sim.goal_grid
+    world = env.sim.world
+    assert world.window_m[0] == pytest.approx(-45.05) and world.window_m[2] == pytest.approx(45.05)
+    assert world.window_m[1] == -30.0 and world.window_m[3] == 30.0
     assert grid.low[0] <= -45.05 and grid.high[0] >= 45.05 and grid.shape[0] > 60
     *_, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
     assert info["world"] == "primitives" and info["discovered"] > 0 and info["q"] > 0

@@ -23,6 +23,10 @@ from nbv_gym.worlds.scenes.spec import SceneSpec
 #: The added ground plane reaches this far beyond the scene's footprint, metres (the procedural
 #: worlds' 64 m ground around their 60 m window leaves 2 m too).
 GROUND_MARGIN_M = 2.0
+#: The smallest window, metres, a square around the start: the benchmark worlds' 60 m, so that a
+#: small scene keeps the benchmark's goal grid (and an agent's action space) and the added
+#: ground covers all of it (the discovered fraction counts the goal grid's ground).
+MIN_WINDOW_M = 60.0
 #: Heights above the ground (metres) where a ground-truth voxel blocks a start: from above the
 #: lidar's near-return filter to above the sensor (a canopy higher up does not).
 START_BAND_M = (0.3, 3.0)
@@ -33,7 +37,7 @@ START_CELL_M = 0.5
 @dataclass(frozen=True)
 class SceneFrame:
     """Where a scene world lies: ``window_m`` (x_min, y_min, x_max, y_max) the footprint of the
-    scene's geometry, ``ground_xy_m`` ((x_min, y_min), (x_max, y_max)) where the robot may
+    scene's geometry, grown to :data:`MIN_WINDOW_M` around the start, ``ground_xy_m`` ((x_min, y_min), (x_max, y_max)) where the robot may
     stand, and ``offset_m`` (3,) the file-frame point (metres, z up) that is the world's
     origin."""
 
@@ -95,7 +99,8 @@ def place(
     shift = np.rint(np.asarray(start) / res).astype(np.int64)
     offset = np.append(shift * res, 0.0)
     truth = GroundTruth((truth.voxels - np.append(shift, 0)).astype(np.int32), res)
-    low, high = low - offset[:2], high - offset[:2]
+    low = np.minimum(low - offset[:2], -MIN_WINDOW_M / 2)
+    high = np.maximum(high - offset[:2], MIN_WINDOW_M / 2)
     margin = GROUND_MARGIN_M if spec.scene.ground == "add" else 0.0
     frame = SceneFrame(
         (float(low[0]), float(low[1]), float(high[0]), float(high[1])),

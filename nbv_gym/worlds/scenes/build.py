@@ -61,39 +61,56 @@ class BuiltScene:
 
 def build_scene(spec: SceneSpec, res: float) -> BuiltScene:
     """The scene of ``spec`` in the world frame, its ground truth at ``res`` metres."""
-    vertices, faces = scene_surface(spec, res)
-    vertices, truth, frame = place(spec, vertices, faces, res)
+    surface = scene_surface(spec, res)
+    vertices, truth, frame = place(spec, surface, res)
+    faces = surface.faces
     scene_faces = len(faces)
     if spec.scene.ground == "add":
         (x0, y0), (x1, y1) = frame.ground_xy_m
         plane = np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]])
-        vertices, faces = shapes.concatenate(
-            [(vertices, faces), (plane, np.array([[0, 1, 2], [0, 2, 3]]))]
-        )
+        square = np.array([[0, 1, 2], [0, 2, 3]])
+        vertices, faces = shapes.concatenate([(vertices, faces), (plane, square)])
     return BuiltScene(
         vertices.astype(np.float32), faces.astype(np.int32), scene_faces, truth, frame
     )
 
 
-def scene_surface(spec: SceneSpec, res: float) -> tuple[FloatArray, IntArray]:
-    """(V, 3) float64 vertices (metres, z up, file frame) and (F, 3) triangles the lidar hits."""
+@dataclass(frozen=True)
+class Surface:
+    """What a scene file gives: ``vertices`` (V, 3) float64 metres, z up, file frame, and
+    ``faces`` (F, 3) the lidar hits; ``z0`` the scene's lowest z (the ground); ``voxels`` (k, 3)
+    the occupied voxels of the frame lifted by ``z0`` where the file says them (a cloud), None
+    where they are the faces' (a mesh)."""
+
+    vertices: FloatArray
+    faces: IntArray
+    z0: float
+    voxels: IntArray | None = None
+
+
+def scene_surface(spec: SceneSpec, res: float) -> Surface:
+    """The :class:`Surface` of the scene file of ``spec``."""
     scene = spec.scene
     if scene.kind == "cloud":
-        raise ConfigError(f"scene.kind: {spec.path} is a point cloud; clouds are not read yet")
+        from nbv_gym.worlds.scenes.clouds import cloud_surface
+
+        return Surface(*cloud_surface(spec.path, scene.scale, scene.up, res))
     vertices, faces = read_mesh(spec.path)
     used = np.unique(faces)
     vertices = to_metres_z_up(vertices, scene.scale, scene.up)
     check_size(spec.path, vertices[used], scene.scale)
-    return vertices, faces
+    return Surface(vertices, faces, float(vertices[used, 2].min()))
 
 
 def place(
-    spec: SceneSpec, vertices: FloatArray, faces: IntArray, res: float
+    spec: SceneSpec, surface: Surface, res: float
 ) -> tuple[FloatArray, GroundTruth, SceneFrame]:
     """The vertices in the world frame, the ground truth and the frame of a scene surface."""
-    z0 = float(vertices[np.unique(faces), 2].min())
-    lifted = vertices - [0.0, 0.0, z0]
-    truth = surface_voxels(lifted, faces, res)
+    lifted = surface.vertices - [0.0, 0.0, surface.z0]
+    if surface.voxels is None:
+        truth = surface_voxels(lifted, surface.faces, res)
+    else:
+        truth = GroundTruth(surface.voxels.astype(np.int32), res)
     low, high = lifted[:, :2].min(axis=0), lifted[:, :2].max(axis=0)
     start = _start(spec, truth, low, high)
     shift = np.rint(np.asarray(start) / res).astype(np.int64)
@@ -106,7 +123,7 @@ def place(
         (float(low[0]), float(low[1]), float(high[0]), float(high[1])),
         ((float(low[0] - margin), float(low[1] - margin)),
          (float(high[0] + margin), float(high[1] + margin))),
-        (float(offset[0]), float(offset[1]), z0),
+        (float(offset[0]), float(offset[1]), surface.z0),
     )  # fmt: skip
     return lifted - offset, truth, frame
 

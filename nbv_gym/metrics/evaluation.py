@@ -180,7 +180,7 @@ def alg1_inputs(map_path: Path, truth_path: Path, res: float = 0.1):
     metres, z from 0.2 m), so an nbv-gym map scores as ``evaluate --world`` scores it.
 
     ``map_path``: a saved map (.npz) or a cloud of known voxel centres with a ``probability``
-    property (.ply, as ``nbv-gym export --min-probability 0`` writes); ``truth_path``: any point
+    property (.ply, as ``nbv-gym export --min-p 0`` writes); ``truth_path``: any point
     cloud (PLY, PCD, XYZ; LAS/LAZ with the las extra)."""
     known, probability, box = _map_voxels(map_path, res)
     truth = _truth_voxels(truth_path, res)
@@ -242,7 +242,7 @@ def _map_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     else:
         raise MetricInputError(
             f"{path}: with a ground-truth cloud, --map takes a saved map (.npz) or a cloud of "
-            "known voxels with a probability property (.ply, nbv-gym export --min-probability 0)"
+            "known voxels with a probability property (.ply, nbv-gym export --min-p 0)"
         )
     if len(centres) == 0:
         raise MetricInputError(f"{path}: the map holds no known voxel")

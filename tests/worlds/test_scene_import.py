@@ -93,3 +93,28 @@ def test_an_unreadable_format_gives_one_line(tmp_path):
         lines = [line for line in result.stderr.splitlines() if line.startswith("Error: ")]
         assert result.returncode == 2 and len(lines) == 1 and message in lines[0], result.stderr
     assert not (tmp_path / "s.toml").exists()
+
+
+def test_a_point_cloud_imports_as_a_cloud_world(tmp_path):
+    from nbv_gym.core.pointclouds import write_points
+
+    rng = np.random.default_rng(0)
+    wall = np.column_stack([rng.uniform(5, 9, 4000), np.full(4000, 6.05), rng.uniform(0, 2, 4000)])
+    write_points(tmp_path / "scan.pcd", np.vstack([wall, [[-9.0, -9.0, 0.0]]]))
+    result = run_cli("worlds", "import", "scan.pcd", "--out", "scan.toml", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "scan.pcd: cloud, 4,001 points, units metres" in result.stdout
+    assert tomllib.loads((tmp_path / "scan.toml").read_text())["scene"]["kind"] == "cloud"
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [("", "the point cloud is empty"), ("0 0 0\nnan 1 1\n5 5 1\n", "NaN or infinite")],
+    ids=["empty", "nan"],
+)
+def test_a_bad_cloud_gives_one_line_and_writes_nothing(tmp_path, content, message):
+    (tmp_path / "bad.xyz").write_text(content)
+    result = run_cli("worlds", "import", "bad.xyz", "--out", "bad.toml", cwd=tmp_path)
+    lines = [line for line in result.stderr.splitlines() if line.startswith("Error: ")]
+    assert result.returncode == 2 and len(lines) == 1 and message in lines[0], result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.xyz"]

@@ -81,10 +81,11 @@ def evaluate(
     per-cuboid quality into DIR/quality.png. With --ground-truth CLOUD (a map that did not come
     from nbv-gym, scored against a real scan): Alg. 1 of the paper — both on 0.1 m voxels,
     compared over the 1 m cuboids meeting the intersection of the map's and the cloud's
-    bounding boxes; --map is then a saved map (.npz) or a PLY of known voxel centres with a
-    probability property (nbv-gym export --min-p 0). With two point clouds (ground truth first): the Empir3D
-    scores Q_r, Q_a, Q_c, Q_t and the Chamfer and Hausdorff distances (per-region table in
-    DIR/regions.csv with --out).
+    bounding boxes; --map is then a saved map (.npz), an OctoMap (.bt, .ot; needs
+    nbv-gym[octomap]) or a PLY of known voxel centres with a probability property (nbv-gym
+    export --min-p 0). With two point clouds (ground truth first): the Empir3D scores Q_r, Q_a,
+    Q_c, Q_t and the Chamfer and Hausdorff distances (per-region table in DIR/regions.csv with
+    --out).
 
     Examples:
 

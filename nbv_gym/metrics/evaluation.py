@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.core.errors import missing_file
+from nbv_gym.core.errors import MissingExtraError, missing_file
 from nbv_gym.mapping.mapfile import load_map, recorded_world
 from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.empir3d_config import Empir3DConfig
@@ -179,8 +179,9 @@ def alg1_inputs(map_path: Path, truth_path: Path, res: float = 0.1):
     bounding box). The cuboids sit on the benchmark's lattice (G's: x, y on whole
     metres, z from 0.2 m), so an nbv-gym map scores as ``evaluate --world`` scores it.
 
-    ``map_path``: a saved map (.npz) or a cloud of known voxel centres with a ``probability``
-    property (.ply, as ``nbv-gym export --min-p 0`` writes); ``truth_path``: any point
+    ``map_path``: a saved map (.npz), an OctoMap (.bt, .ot; the octomap extra) or a cloud of
+    known voxel centres with a ``probability`` property (.ply, as ``nbv-gym export --min-p 0``
+    writes); ``truth_path``: any point
     cloud (PLY, PCD, XYZ; LAS/LAZ with the las extra)."""
     known, probability, box = _map_voxels(map_path, res)
     truth = _truth_voxels(truth_path, res)
@@ -239,10 +240,14 @@ def _map_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     elif path.suffix == ".ply":
         centres, probability = _probability_cloud(path)
         box = None
+    elif path.suffix in (".bt", ".ot"):
+        centres, probability = _octomap_voxels(path, res)
+        box = None
     else:
         raise MetricInputError(
-            f"{path}: with a ground-truth cloud, --map takes a saved map (.npz) or a cloud of "
-            "known voxels with a probability property (.ply, nbv-gym export --min-p 0)"
+            f"{path}: with a ground-truth cloud, --map takes a saved map (.npz), an OctoMap "
+            "(.bt, .ot) or a cloud of known voxels with a probability property (.ply, nbv-gym "
+            "export --min-p 0)"
         )
     if len(centres) == 0:
         raise MetricInputError(f"{path}: the map holds no known voxel")
@@ -252,6 +257,34 @@ def _map_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     if box is None:
         box = np.stack([voxels.min(axis=0), voxels.max(axis=0)])
     return voxels, probability.astype(np.float32), box
+
+
+def _octomap_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray]:
+    """(k, 3) float64 centres of the ``res`` voxels of an OctoMap's leaves (a pruned leaf
+    split into its voxels) and their (k,) float32 occupancy probabilities."""
+    try:
+        import pyoctomap
+    except ImportError:
+        raise MissingExtraError("pyoctomap", "octomap") from None
+    tree = pyoctomap.OcTree(res)
+    if path.suffix == ".bt":
+        read = tree.readBinary(str(path))
+    else:
+        read = tree.read(str(path))
+        tree = read if read is not None else tree
+    if not read or not np.isclose(tree.getResolution(), res):
+        raise MetricInputError(f"{path}: not a readable OctoMap of {res} m voxels")
+    centres, probability = [], []
+    for leaf in tree.begin_leafs():
+        centre, size = np.asarray(leaf.getCoordinate(), float), float(leaf.getSize())
+        n = max(1, round(size / res))
+        steps = (np.arange(n) - (n - 1) / 2) * res
+        block = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), -1).reshape(-1, 3)
+        centres.append(centre + block)
+        probability.append(np.full(len(block), leaf.current_node.getOccupancy(), np.float32))
+    if not centres:
+        return np.empty((0, 3)), np.empty(0, np.float32)
+    return np.concatenate(centres), np.concatenate(probability)
 
 
 def _probability_cloud(path: Path) -> tuple[np.ndarray, np.ndarray]:

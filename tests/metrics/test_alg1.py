@@ -79,3 +79,27 @@ def test_evaluate_refuses_a_world_and_a_cloud_together_in_one_line(explored):
     lines = [line for line in result.stderr.splitlines() if line.startswith("Error: ")]
     assert result.returncode == 2 and len(lines) == 1
     assert "give exactly one of --world NAME and --ground-truth" in lines[0]
+
+
+def test_an_octomap_scores_as_its_maximum_likelihood_voxels(explored):
+    """A .bt keeps each known voxel's state only, read back at the reading tree's clamping
+    bounds (OctoMap's defaults: the format holds no parameters); scoring it equals scoring a PLY
+    of the map's known voxels at those bounds, pruned leaves and all."""
+    pyoctomap = pytest.importorskip("pyoctomap")
+    from nbv_gym.mapping.export import map_voxels
+    from nbv_gym.mapping.mapfile import load_map
+
+    folder, _, _ = explored
+    occupancy = load_map(folder / "map.npz")
+    export_map(occupancy, folder / "map.bt")
+    centres, probability = map_voxels(occupancy, 0.0)
+    tree = pyoctomap.OcTree(0.1)
+    high, low = tree.getClampingThresMax(), tree.getClampingThresMin()
+    bound = np.where(probability > occupancy.params["p_occupied"], high, low)
+    write_points(
+        folder / "bounds.ply", centres, {"probability": bound.astype(np.float32)}, single=True
+    )
+    octomap = evaluate_map(folder / "map.bt", None, folder / "truth.ply", None)
+    expected = evaluate_map(folder / "bounds.ply", None, folder / "truth.ply", None)
+    for key, value in expected.items():
+        assert octomap[key] == pytest.approx(value, rel=1e-5, nan_ok=True), key

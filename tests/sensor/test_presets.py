@@ -60,12 +60,17 @@ def test_a_vlp16_on_flat_ground_sees_its_eight_lower_rings_at_their_ranges():
     assert len(scan) == 8 * 1800
 
 
+#: Every environment id of the package, from Gymnasium's registry.
+ALL_IDS = sorted(env_id for env_id in gymnasium.registry if env_id.startswith("nbv_gym/"))
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
 @pytest.mark.parametrize("name", sorted(LIDAR_PRESETS))
-def test_every_preset_passes_the_gymnasium_checker(name):
+def test_every_preset_passes_the_gymnasium_checker(name, env_id):
     from gymnasium.utils.env_checker import check_env
 
     config = {"simulator": {"world": WORLD, "noise": 0, "lidar": {"range_noise": None}}}
-    env = gymnasium.make("nbv_gym/Explore-v0", config=config, lidar=name, max_steps=3,
+    env = gymnasium.make(env_id, config=config, lidar=name, max_steps=3,
                          disable_env_checker=True)  # fmt: skip
     assert env.unwrapped.config.simulator.lidar.n_azimuth == lidar_config(name).n_azimuth
     with warnings.catch_warnings():

@@ -10,7 +10,7 @@ import pytest
 import trimesh
 
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.protocol import RESOLUTION_M as GROUND_TRUTH_RES_M
+from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.worlds import load_spec, load_world, shapes, surface_voxels
 from nbv_gym.worlds.world import cache_path
 
@@ -75,7 +75,7 @@ def test_a_mesh_file_of_primitives_gives_the_analytic_ground_truth(tmp_path, suf
     world = load_world(write_spec(tmp_path, f"primitives{suffix}"), cache=False)
     voxels = {tuple(v) for v in world.ground_truth.voxels.tolist()}
     boxes = set().union(*map(analytic_box_voxels, BOXES))
-    cylinder = surface_voxels(*cylinder_mesh(), GROUND_TRUTH_RES_M).voxels
+    cylinder = surface_voxels(*cylinder_mesh(), RESOLUTION_M).voxels
     assert voxels == boxes | {tuple(v) for v in cylinder.tolist()}
     assert world.frame.offset_m == (0.0, 0.0, 0.0)
 
@@ -110,7 +110,7 @@ def test_a_free_start_is_chosen_and_the_world_moves_to_it(tmp_path):
     spec = tmp_path / "auto.toml"
     spec.write_text('name = "auto"\n[scene]\nfile = "s.obj"\n')
     world = load_world(str(spec), cache=False)
-    shift = np.rint(np.asarray(world.frame.offset_m) / GROUND_TRUTH_RES_M).astype(int)
+    shift = np.rint(np.asarray(world.frame.offset_m) / RESOLUTION_M).astype(int)
     assert np.array_equal(world.ground_truth.voxels + shift, given.ground_truth.voxels)
     centres = world.ground_truth.points()
     low = centres[(centres[:, 2] > 0.3) & (centres[:, 2] < 3.0)]

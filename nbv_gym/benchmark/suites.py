@@ -149,15 +149,20 @@ class Suite:
         return replace(self, parts=tuple(replace(part, lidar=lidar) for part in self.parts))
 
     def with_worlds(self, worlds: tuple[str, ...]) -> Suite:
-        """This suite's shape on your own ``worlds`` (spec files or benchmark names): its budget
-        and explore parts with those worlds, noise levels and repeats; no test split (the
-        generated test worlds are the benchmark's). Another suite: its scorecards rank apart."""
+        """This suite's shape on your own ``worlds`` (spec files or benchmark names): its parts
+        on the benchmark worlds (budget, explore, time), with those worlds, noise levels and
+        repeats; not its parts on the generated test split (the benchmark's own held-out
+        worlds). Another suite: its scorecards rank apart."""
         for world in worlds:
             load_spec(world)  # a bad world fails before any run
-        parts = tuple(replace(p, worlds=tuple(worlds)) for p in self.parts if p.split != "test")
+        parts = tuple(
+            replace(part, worlds=tuple(worlds))
+            for part in self.parts
+            if not any(isinstance(w, WorldSpec) for w in part.worlds)
+        )
         listed = ", ".join(worlds)
         return replace(self, name=f"{self.name}-own", parts=parts,
-                       description=f"{self.name}'s budget and explore parts on {listed}")  # fmt: skip
+                       description=f"{self.name}'s benchmark-world parts on {listed}")  # fmt: skip
 
     def part(self, split: str) -> Part:
         return next(p for p in self.parts if p.split == split)

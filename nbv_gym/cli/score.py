@@ -41,7 +41,7 @@ def score(
     world: Annotated[
         list[str] | None,
         typer.Option(
-            help="Run the suite's budget and explore parts on this world instead (a spec file, "
+            help="Run the suite's parts on the benchmark worlds on this world instead (a spec file, "
             "e.g. your own scene; repeat for several); its scorecards rank apart."
         ),
     ] = None,

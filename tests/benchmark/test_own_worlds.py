@@ -1,4 +1,4 @@
-"""``nbv-gym score --world SPEC``: a suite's budget and explore parts on your own worlds, a suite
+"""``nbv-gym score --world SPEC``: a suite's parts on the benchmark worlds run on your own, a suite
 of its own (its scorecards rank apart from the benchmark's)."""
 
 from __future__ import annotations
@@ -11,16 +11,15 @@ from nbv_gym.worlds import load_spec
 from tests.helpers import write_tiny_world
 
 
-def test_a_suite_on_your_worlds_keeps_its_shape_without_the_test_split(tmp_path):
+def test_a_suite_on_your_worlds_keeps_its_parts_on_the_benchmark_worlds(tmp_path):
     spec = str(write_tiny_world(tmp_path))
     own = QUICK.with_worlds((spec,))
-    assert [p.split for p in own.parts] == ["benchmark", "explore"]
-    for part, original in zip(
-        own.parts, (QUICK.part("benchmark"), QUICK.part("explore")), strict=True
-    ):
+    kept = ["time-benchmark", "benchmark", "explore"]  # the parts on the benchmark worlds
+    assert [p.split for p in own.parts] == kept
+    for part, original in zip(own.parts, map(QUICK.part, kept), strict=True):
         assert part.worlds == (spec,) and part.task == original.task
         assert (part.noise, part.repeats) == (original.noise, original.repeats)
-    assert own.name == "quick-own" and own.runs == 2 * 3 * 2
+    assert own.name == "quick-own" and own.runs == 3 * (3 * 2)  # parts × (noise × repeats)
     assert own.content_hash() != QUICK.content_hash()
     worlds = own.content()["parts"][0]["worlds"]
     assert worlds == {"tiny-cuboids": load_spec(spec).digest()}

@@ -7,6 +7,7 @@ import copy
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -29,7 +30,8 @@ from nbv_gym.mapping.tally import CellTally
 from nbv_gym.metrics.cuboids import CuboidConfig, QualityConfig, QualitySummary
 from nbv_gym.metrics.tracker import QualityTracker
 from nbv_gym.sensor.lidar import Lidar, LidarConfig, Scan
-from nbv_gym.worlds import World, load_spec, load_world
+from nbv_gym.worlds import World, WorldSpec, load_spec, load_world
+from nbv_gym.worlds.scenes import SceneSpec
 
 #: The most memory one simulator's episode may need by :func:`episode_memory_bytes` (bytes); a
 #: world or episode estimated above it is refused before the episode starts.
@@ -125,11 +127,14 @@ class Simulator:
     def __init__(self, config: SimulatorConfig | None = None, world: World | None = None):
         config = config or SimulatorConfig()
         spec = world.spec if world is not None else load_spec(config.world)
-        config = replace(config, mapping=config.mapping.fitted(spec.placement.window_m))
+        if world is None and isinstance(spec, SceneSpec):  # its window is the built scene's
+            world = load_world(spec)
+        window = world.window_m if world is not None else cast(WorldSpec, spec).window_m
+        config = replace(config, mapping=config.mapping.fitted(window))
         self.config = config  # with the map box and G fitted to the world
         say_if_compiling()
         self.goal_grid = self.config.mapping.statistics.grid()
-        self._check_world(spec)
+        self._check_world(world or spec)
         self.world = world or load_world(spec)
         self._check_memory(self.world)
         self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
@@ -151,7 +156,7 @@ class Simulator:
         """Explore ``world`` from the next :meth:`reset` on (e.g. a world distribution's next
         draw), keeping this simulator's grids and map arrays; the previous world's scene and
         ground truth are released. ConfigError unless its placement window lies in G."""
-        self._check_world(world.spec)
+        self._check_world(world)
         self._check_memory(world)
         self.world = world
         self.lidar = Lidar.for_world(world, self.config.lidar, self.config.noise)
@@ -180,12 +185,14 @@ class Simulator:
             f"(nbv_gym.simulator.MAX_EPISODE_BYTES); {advice}"
         )
 
-    def _check_world(self, spec) -> None:
+    def _check_world(self, world) -> None:
+        """ConfigError unless the window of ``world`` (a built world or a procedural spec) lies
+        in G."""
         low, high = tuple(self.goal_grid.low[:2]), tuple(self.goal_grid.high[:2])
         mapping = self.config.mapping
         fits = f"fitted to windows of at most mapping.max_window_m = {mapping.max_window_m:g} m"
         what = fits if mapping.fit_to_world else "mapping.fit_to_world = false"
-        spec.check_inside(low, high, f"the goal grid (mapping.statistics; {what})")
+        world.check_inside(low, high, f"the goal grid (mapping.statistics; {what})")
 
     @property
     def n_goals(self) -> int:

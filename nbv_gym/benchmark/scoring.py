@@ -125,7 +125,15 @@ def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
         task=part.task,
         budget_scans=part.budget_scans,
         time_budget_s=part.time_budget_s,
+        env=_lidar_env(part.lidar),
     )
+
+
+def _lidar_env(lidar: str) -> dict[str, Any]:
+    """The ``[env]`` table of a part run with the lidar preset ``lidar`` (none for the default)."""
+    from nbv_gym.sensor.presets import DEFAULT_LIDAR, beam_pattern
+
+    return {} if lidar == DEFAULT_LIDAR else {"simulator": {"lidar": beam_pattern(lidar)}}
 
 
 def part_runs(

@@ -45,7 +45,8 @@ from nbv_gym.core.protocol import (
     check_task,
     task_episode,
 )
-from nbv_gym.worlds.spec import WorldSpec, load_spec
+from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config, lidar_preset
+from nbv_gym.worlds.spec import AnySpec, WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
 #: different versions are never compared.
@@ -77,9 +78,11 @@ class Part:
     budget_scans: int = BUDGET_SCANS
     max_steps: int = EXPLORE_MAX_STEPS
     time_budget_s: float = TIME_BUDGET_S
+    lidar: str = DEFAULT_LIDAR
 
     def __post_init__(self) -> None:
         check_task(self.task)
+        lidar_preset(self.lidar)
 
     @property
     def metric(self) -> str:
@@ -96,7 +99,7 @@ class Part:
         """Number of runs of the part: worlds × noise levels × repeats."""
         return len(self.worlds) * len(self.noise) * self.repeats
 
-    def specs(self) -> tuple[WorldSpec, ...]:
+    def specs(self) -> tuple[AnySpec, ...]:
         """The world specs of the part (benchmark names loaded)."""
         return tuple(w if isinstance(w, WorldSpec) else load_spec(w) for w in self.worlds)
 
@@ -108,7 +111,8 @@ class Part:
         config = EnvConfig()
         episode = replace(config.simulator.episode, max_steps=self.max_steps)
         episode = task_episode(self.task, episode, self.budget_scans, self.time_budget_s)
-        return replace(config, simulator=replace(config.simulator, episode=episode))
+        simulator = replace(config.simulator, episode=episode, lidar=lidar_config(self.lidar))
+        return replace(config, simulator=simulator)
 
     def description(self) -> dict[str, Any]:
         """The part as plain data for the scorecard."""
@@ -123,6 +127,8 @@ class Part:
             "max_steps": self.max_steps if self.task == "explore" else None,
             "time_budget_s": self.time_budget_s if self.task == "time" else None,
             "runs": self.runs,
+            # only another preset is named: the benchmark's scorecards keep their content
+            **({"lidar": self.lidar} if self.lidar != DEFAULT_LIDAR else {}),
         }
 
 
@@ -139,6 +145,27 @@ class Suite:
     def runs(self) -> int:
         """Number of runs of the suite, over all its parts."""
         return sum(part.runs for part in self.parts)
+
+    def with_lidar(self, lidar: str) -> Suite:
+        """This suite run with the lidar preset ``lidar`` (:mod:`nbv_gym.sensor.presets`); its
+        content hash changes unless it is the default, so its scorecards rank apart."""
+        return replace(self, parts=tuple(replace(part, lidar=lidar) for part in self.parts))
+
+    def with_worlds(self, worlds: tuple[str, ...]) -> Suite:
+        """This suite's shape on your own ``worlds`` (spec files or benchmark names): its parts
+        on the benchmark worlds (budget, explore, time), with those worlds, noise levels and
+        repeats; not its parts on the generated test split (the benchmark's own held-out
+        worlds). Another suite: its scorecards rank apart."""
+        for world in worlds:
+            load_spec(world)  # a bad world fails before any run
+        parts = tuple(
+            replace(part, worlds=tuple(worlds))
+            for part in self.parts
+            if not any(isinstance(w, WorldSpec) for w in part.worlds)
+        )
+        listed = ", ".join(worlds)
+        return replace(self, name=f"{self.name}-own", parts=parts,
+                       description=f"{self.name}'s benchmark-world parts on {listed}")  # fmt: skip
 
     def part(self, split: str) -> Part:
         """The part of split ``split`` (``StopIteration`` if the suite has none)."""

@@ -9,7 +9,8 @@ from typing import Annotated
 import typer
 
 configs_app = typer.Typer(
-    help="List, show and copy the shipped configs (sweeps, training, rl-zoo3).",
+    help="List, show and copy the shipped configs (sweeps, training, rl-zoo3); list the lidar "
+    "presets.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -31,6 +32,33 @@ def configs_list() -> None:
 
     for config in shipped_configs().values():
         typer.echo(f"{config.name:<16}{config.kind:<9}{config.summary}")
+
+
+@configs_app.command("lidars")
+def configs_lidars() -> None:
+    """List the lidar presets (--lidar NAME, lidar="NAME" on the environment): beams, vertical
+    field of view, azimuth samples, rays per scan, datasheet range and source.
+
+    Examples:
+
+    \b
+      nbv-gym configs lidars
+      nbv-gym run --lidar vlp-16 --world pp1-trees --out runs/vlp16
+    """
+    from nbv_gym.sensor.presets import LIDAR_PRESETS
+
+    typer.echo(f"{'name':<9}{'beams':>6}{'vertical FoV':>18}{'azimuth':>9}{'rays':>8}{'range':>8}")
+    for preset in LIDAR_PRESETS.values():
+        low, high = preset.vertical_fov_deg
+        fov = f"{low:+.2f}° … {high:+.2f}°"
+        config = preset.config
+        typer.echo(
+            f"{preset.name:<9}{config.n_channels:>6}{fov:>18}{config.n_azimuth:>9}"
+            f"{preset.rays:>8,}{preset.range_m:>6.0f} m  {preset.description}"
+        )
+    typer.echo("\nsources:")
+    for preset in LIDAR_PRESETS.values():
+        typer.echo(f"  {preset.name}: {preset.source}")
 
 
 @configs_app.command("show")

@@ -18,6 +18,8 @@ from nbv_gym.metrics.evaluation import (
     CSV_NAME,
     REGIONS_NAME,
     SUMMARY_NAME,
+    TRUTH_CLOUD_SUFFIXES,
+    alg1_inputs,
     check_map_world,
     empir3d_config,
     load_ground_truth,
@@ -59,7 +61,11 @@ def evaluate(
         str | None, typer.Option(help="World whose ground truth scores --map.")
     ] = None,
     ground_truth: Annotated[
-        Path | None, typer.Option(help="Bool ground-truth grid (.npy) instead of --world.")
+        Path | None,
+        typer.Option(
+            help="Instead of --world: a ground-truth point cloud (.ply .pcd .xyz .las .laz; "
+            "Alg. 1) or a bool grid (.npy)."
+        ),
     ] = None,
     out: Annotated[
         Path | None, typer.Option(help="Folder for the CSV, summary and heat map.")
@@ -72,15 +78,22 @@ def evaluate(
 
     With --map: per-cuboid cov (4 settings), L1, WD_occ and quality into DIR/cuboids.csv, the
     summary (Q, Q_paper, cov x4, L1, WD_occ statistics) into DIR/summary.json and a heat map of the
-    per-cuboid quality into DIR/quality.png. With two point clouds (ground truth first): the Empir3D
-    scores Q_r, Q_a, Q_c, Q_t and the Chamfer and Hausdorff distances (per-region table in
-    DIR/regions.csv with --out).
+    per-cuboid quality into DIR/quality.png. With --ground-truth CLOUD (a map that did not come
+    from nbv-gym, scored against a real scan): Alg. 1 of the paper — both on 0.1 m voxels,
+    compared over the 1 m cuboids meeting the intersection of the map's and the cloud's
+    bounding boxes; --map is then a saved map (.npz), an OctoMap (.bt, .ot; needs
+    nbv-gym[octomap]) or a PLY of known voxel centres with a probability property (nbv-gym
+    export --min-p 0). With two point clouds (ground truth first): the Empir3D scores Q_r, Q_a,
+    Q_c, Q_t and the Chamfer and Hausdorff distances (per-region table in DIR/regions.csv with
+    --out).
 
     Examples:
 
         nbv-gym evaluate --map runs/pp1-trees/map.npz --world pp1-trees --out eval/
 
         nbv-gym evaluate --map prob.npy --ground-truth gt.npy --out eval/ --json
+
+        nbv-gym evaluate --map robot-map.ply --ground-truth park-scan.las --json
 
         nbv-gym evaluate truth.ply scan.pcd --epsilon 0.05 --region 2 --json
     """
@@ -107,14 +120,21 @@ def evaluate_map(
     from nbv_gym.metrics.wasserstein import wd_occ
 
     check_map_world(map_path, world)
+    cloud = ground_truth if _is_cloud(ground_truth) else None
+    if cloud is not None and world is not None:
+        raise MetricInputError("give exactly one of --world NAME and --ground-truth")
     if out is not None:
         claim_folder(out, "evaluate")
     grid = benchmark_grid()
     with Stages(4) as stage:
         stage("reading the map")
-        prob = load_probability(map_path, grid)
-        stage("reading the ground truth")
-        truth = load_ground_truth(world, ground_truth, grid)
+        if cloud is not None:
+            stage("reading the ground truth; the grid of Alg. 1")
+            prob, truth, grid = alg1_inputs(map_path, cloud)
+        else:
+            prob = load_probability(map_path, grid)
+            stage("reading the ground truth")
+            truth = load_ground_truth(world, ground_truth, grid)
         stage("cov, L1, Q per cuboid (kernels compile on a first run, then are cached)")
         metrics = evaluate_cuboids(prob, truth)
         stage("WD_occ per cuboid")
@@ -125,6 +145,10 @@ def evaluate_map(
         (out / SUMMARY_NAME).write_text(dumps_json(summary) + "\n")
         _write_heatmap(out / HEATMAP_NAME, metrics.quality, summary["q"])
     return summary
+
+
+def _is_cloud(path: Path | None) -> bool:
+    return path is not None and path.suffix.lower() in TRUTH_CLOUD_SUFFIXES
 
 
 def evaluate_clouds(

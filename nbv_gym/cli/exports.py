@@ -12,6 +12,7 @@ import typer
 
 from nbv_gym.cli.options import (
     BudgetScansOption,
+    LidarOption,
     MaxStepsOption,
     ScanTimeOption,
     SpeedOption,
@@ -132,6 +133,7 @@ def record(
     time_budget_s: TimeBudgetOption = None,
     speed_mps: SpeedOption = None,
     scan_time_s: ScanTimeOption = None,
+    lidar: LidarOption = None,
     dataset_id: Annotated[
         str | None, typer.Option(help="Minari dataset id (default: nbv-gym/WORLD/POLICY-v0).")
     ] = None,
@@ -157,7 +159,9 @@ def record(
           --time-budget-s 300 --out data/ig
     """
     from nbv_gym.rl.dataset import record_dataset
+    from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_preset
 
+    lidar = lidar_preset(lidar or DEFAULT_LIDAR).name  # an unknown preset fails first
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
     episode = task_episode_config(
         task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
@@ -172,6 +176,6 @@ def record(
 
     dataset = record_dataset(
         policy, world, out, episodes=episodes, noise=noise, seed=seed, max_steps=steps,
-        dataset_id=dataset_id, progress=progress, task=task, effort=effort,
+        dataset_id=dataset_id, progress=progress, task=task, effort=effort, lidar=lidar,
     )  # fmt: skip
     typer.echo(f"{dataset.total_episodes} episodes, {dataset.total_steps} steps → {out}")

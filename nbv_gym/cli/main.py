@@ -11,6 +11,7 @@ import typer
 
 from nbv_gym.cli.options import (
     BudgetScansOption,
+    LidarOption,
     MaxStepsOption,
     ScanTimeOption,
     SpeedOption,
@@ -19,7 +20,7 @@ from nbv_gym.cli.options import (
     task_episode_config,
     task_of,
 )
-from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL
+from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL, POSITIVE
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import describe_os_error
@@ -75,7 +76,7 @@ app = _App(
     context_settings={"help_option_names": ["-h", "--help"]},
 )
 worlds_app = typer.Typer(
-    help="List, build and preview the benchmark worlds.",
+    help="List, build and preview the benchmark worlds; import your own scene.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -153,6 +154,49 @@ def worlds_build(
             bar.update()
 
 
+@worlds_app.command("import")
+def worlds_import(
+    file: Annotated[Path, typer.Argument(help="Mesh (OBJ PLY STL OFF GLB GLTF) or point cloud.")],
+    out: Annotated[Path, typer.Option(help="World spec file to write (.toml).")],
+    name: Annotated[str | None, typer.Option(help="World name [default: the file's stem].")] = None,
+    scale: Annotated[
+        float | None,
+        typer.Option(help="File units to metres [default: detected].", parser=POSITIVE),
+    ] = None,
+    up: Annotated[
+        str | None, typer.Option(help="The file's up axis, z or y [default: y for GLB/GLTF].")
+    ] = None,
+    ground: Annotated[
+        str, typer.Option(help="add: a ground plane at the lowest point; mesh: the file's own.")
+    ] = "add",
+    force: Annotated[bool, typer.Option(help="Overwrite an existing spec file.")] = False,
+) -> None:
+    """Write the world spec of your own scene (detected units, bounds and counts in it) and build
+    the world into the cache; then run it like any world. Nothing is written when the file
+    cannot make a world.
+
+    Examples:
+
+    \b
+      nbv-gym worlds import park.glb --out park.toml
+      nbv-gym worlds import scan.ply --out scan.toml --scale 0.001 --up z
+      nbv-gym worlds preview park.toml --out park.png
+      nbv-gym run --world park.toml --out runs/park
+    """
+    from nbv_gym.core.outputs import OutputError, writable_file
+    from nbv_gym.worlds.scenes.importer import import_scene
+
+    if out.exists() and not force:
+        raise OutputError(
+            f"--out {out} exists; pass --force to overwrite it, or give another path."
+        )
+    if out.suffix != ".toml":
+        raise typer.BadParameter(f"expected a .toml file, got {out}", param_hint="--out")
+    writable_file(out)
+    for line in import_scene(file, out, name, scale, up, ground):
+        typer.echo(line)
+
+
 @worlds_app.command("preview")
 def worlds_preview(
     name: Annotated[str, typer.Argument(help="World name or spec file.")],
@@ -191,6 +235,7 @@ def run(
     time_budget_s: TimeBudgetOption = None,
     speed_mps: SpeedOption = None,
     scan_time_s: ScanTimeOption = None,
+    lidar: LidarOption = None,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
     force: Annotated[
@@ -219,21 +264,25 @@ def run(
       nbv-gym run --policy my_module:MyPolicy --world my_world.toml \\
           --no-animation --json
       nbv-gym run --world pp1-trees --out runs/cf --force
+      nbv-gym run --world pp1-trees --lidar vlp-16 --out runs/vlp16
     """
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import is_oracle, load_policy
+    from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config
     from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.worlds import load_spec
 
+    lidar = lidar or DEFAULT_LIDAR
+    sensor = lidar_config(lidar)  # an unknown preset fails first
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
     episode = task_episode_config(
         task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
     )
     run_files = _check_run_folder(out, force)  # a bad --out fails before the world is built
     agent = load_policy(policy)
-    simulator = SimulatorConfig(world=world, noise=noise, episode=episode)
+    simulator = SimulatorConfig(world=world, noise=noise, lidar=sensor, episode=episode)
     load_spec(world)  # a bad world name or spec fails before the world is built
     env = make_env(EnvConfig(simulator), agent, render=animation)
     claim_folder(out, "run")
@@ -252,7 +301,7 @@ def run(
     with staged_folder(out, run_files) as staging:  # a crash leaves an earlier run intact
         result = _episode_of(run_episode, env, agent, seed, report, policy)
         meta = {"world": world, "policy": policy, "oracle": oracle, "noise": noise,
-                "seed": seed, "task": task}  # fmt: skip
+                "seed": seed, "task": task, "lidar": lidar}  # fmt: skip
         summary = write_run_folder(staging, env, result, meta)
         if frames:
             from nbv_gym.env.render import save_animation
@@ -264,7 +313,7 @@ def run(
     final = result.final
     typer.echo(
         f"{policy}{' (oracle)' if oracle else ''} on {world} ({task} task, noise {noise}, "
-        f"seed {seed}): {final['step']} steps, "
+        f"seed {seed}, lidar {lidar}): {final['step']} steps, "
         f"discovered {final['discovered']:.1%}, Q {final['q']:.4f}, "
         f"Q_paper {final['q_paper']:.4f}, path {final['path_length_m']:.1f} m, "
         f"robot time {final['elapsed_s']:.1f} s, {result.wall_time_s:.1f} s wall — "

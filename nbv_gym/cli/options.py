@@ -1,4 +1,5 @@
-"""Options shared by several commands: the task of ``run`` and ``record`` and the effort model."""
+"""Options shared by several commands: the task of ``run`` and ``record``, the effort model
+and the lidar preset."""
 
 from __future__ import annotations
 
@@ -79,3 +80,11 @@ def task_episode_config(
     given = {"max_steps": max_steps, "speed_mps": speed_mps, "scan_time_s": scan_time_s}
     episode = from_dict(EpisodeConfig, {k: v for k, v in given.items() if v is not None})
     return task_episode(task, episode, budget_scans, time_budget_s)
+
+
+LIDAR_HELP = (
+    "Lidar preset (beam pattern): os1-16 (the benchmark's), os1-64, os1-128, vlp-16, hdl-32e; "
+    "nbv-gym configs lidars lists them."
+)
+#: ``--lidar NAME`` of ``run``, ``record``, ``sweep``, ``score`` and ``train``.
+LidarOption = Annotated[str | None, typer.Option(help=LIDAR_HELP + " [default: os1-16]")]

@@ -8,6 +8,8 @@ from typing import Annotated
 
 import typer
 
+from nbv_gym.cli.options import LidarOption
+
 
 def score(
     policy: Annotated[
@@ -35,6 +37,14 @@ def score(
             "the same scorecard as a local run. Needs nbv-gym[dist]."
         ),
     ] = None,
+    lidar: LidarOption = None,
+    world: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Run the suite's parts on the benchmark worlds on this world instead (a spec file, "
+            "e.g. your own scene; repeat for several); its scorecards rank apart."
+        ),
+    ] = None,
     progress: Annotated[bool, typer.Option(help="Show progress bars on stderr.")] = True,
 ) -> None:
     """Score a policy on a fixed evaluation suite and write OUT/scorecard.json and scorecard.md.
@@ -47,7 +57,7 @@ def score(
     split and asset type, the IQM and mean with 95 % stratified bootstrap intervals and the
     optimality gap, and Q at the time budget and at matched path (25–200 m). Killed, the same command resumes.
     Compare scorecards with `nbv-gym leaderboard`. A module:Class policy is imported from the
-    current folder.
+    current folder. Another --lidar than os1-16 makes another suite (its scorecards rank apart).
 
     Examples:
 
@@ -55,6 +65,10 @@ def score(
       nbv-gym score closest-frontier --suite quick --out scores/cf-quick
       nbv-gym score my_policies:MyPolicy --out scores/mine --workers 2
       nbv-gym score nbv-sigma --out scores/sigma --scheduler tls://HOST:8786
+      nbv-gym score closest-frontier --suite quick --world park.toml \\
+          --out scores/cf-park
+      nbv-gym score closest-frontier --suite quick --lidar vlp-16 \\
+          --out scores/cf-vlp16
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
     """
     from nbv_gym.benchmark.scorecard import interval_text
@@ -66,7 +80,8 @@ def score(
 
     check(workers is None or workers >= 1, "--workers", f"must be ≥ 1, got {workers}")
     check_scheduler(scheduler)
-    chosen = get_suite(suite)
+    chosen = get_suite(suite) if lidar is None else get_suite(suite).with_lidar(lidar)
+    chosen = chosen.with_worlds(_absolute(world)) if world else chosen
     with resumable(out / "parts"):
         card = score_policy(
             policy, chosen, out, workers, progress, (os.getcwd(),), scheduler=scheduler
@@ -74,6 +89,11 @@ def score(
     for split, agg in card["aggregates"].items():
         typer.echo(f"{split:<14} {agg['metric']:<11} IQM {interval_text(agg['all'], 'iqm')}")
     typer.echo(f"scorecard: {out / 'scorecard.json'} ({card['timing']['wall_time_s']:.0f} s)")
+
+
+def _absolute(worlds: list[str]) -> tuple[str, ...]:
+    """Spec file paths made absolute (benchmark names kept): the runs read them elsewhere."""
+    return tuple(str(Path(w).resolve()) if w.endswith(".toml") else w for w in worlds)
 
 
 def leaderboard(

@@ -10,6 +10,7 @@ from typing import Annotated
 
 import typer
 
+from nbv_gym.cli.options import LidarOption
 from nbv_gym.cli.params import COUNT, POSITIVE_COUNT
 from nbv_gym.core.jsonfiles import dumps_json
 
@@ -44,6 +45,7 @@ def sweep(
         int | None,
         typer.Option(help="Retries of a failed run [default: the config's].", parser=COUNT),
     ] = None,
+    lidar: LidarOption = None,
     report: Annotated[bool, typer.Option(help="Build the report at the end.")] = True,
     progress: Annotated[bool, typer.Option(help="Show a progress bar on stderr.")] = True,
     as_json: Annotated[
@@ -79,16 +81,18 @@ def sweep(
         nbv-gym sweep my-sweep.toml --scheduler local --workers 2
 
         nbv-gym sweep quick --json > quick.json
+
+        nbv-gym sweep quick --lidar os1-64 --out results/quick-os1-64
     """
     from nbv_gym.configs import config_file
     from nbv_gym.core.outputs import check_owner
     from nbv_gym.sweep.backends import check_scheduler
-    from nbv_gym.sweep.config import read_sweep_config, with_overrides
+    from nbv_gym.sweep.config import read_sweep_config, with_lidar, with_overrides
     from nbv_gym.sweep.runner import run_sweep, summary_rows
 
     config_path = config_file(config, "sweep")
     sweep_config, filled = read_sweep_config(config_path)
-    sweep_config = with_overrides(sweep_config, retries=retries)
+    sweep_config = with_lidar(with_overrides(sweep_config, retries=retries), lidar)
     if filled:
         defaults = ", ".join(f"{key} = {value!r}" for key, value in filled.items())
         typer.echo(

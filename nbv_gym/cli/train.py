@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from nbv_gym.cli.options import LidarOption
 from nbv_gym.cli.params import COUNT, POSITIVE, POSITIVE_COUNT
 
 
@@ -45,6 +46,7 @@ def train(
         ),
     ] = None,
     seed: Annotated[int | None, typer.Option(help="Seed (overrides seed).", parser=COUNT)] = None,
+    lidar: LidarOption = None,
     scheduler: Annotated[
         str | None,
         typer.Option(
@@ -96,6 +98,7 @@ def train(
           --out runs/ppo-short
       nbv-gym train --config ppo --eval-every 2000
       nbv-gym train --config ppo --n-envs 1 --batch-size 128
+      nbv-gym train --config ppo --lidar vlp-16 --out runs/ppo-vlp16
       nbv-gym train --config ppo --n-envs 16 \\
           --device cuda --time-limit 9
       nbv-gym train --config ppo --scheduler local --n-envs 4
@@ -113,7 +116,8 @@ def train(
 
     overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
                  "eval_every_steps": eval_every, "device": device,
-                 "scheduler": scheduler, "learning.batch_size": batch_size}  # fmt: skip
+                 "scheduler": scheduler, "learning.batch_size": batch_size,
+                 "lidar": lidar}  # fmt: skip
     config_path = config_file(config, "train")
     settings = load_train_config(config_path, overrides)
     out = claim_folder(out or Path("runs") / config_path.stem, "train")

@@ -32,6 +32,7 @@ from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
 from nbv_gym.nbv import NbvConfig
+from nbv_gym.sensor.presets import beam_pattern
 from nbv_gym.simulator import (
     ResetNeededError,
     Simulator,
@@ -132,6 +133,8 @@ class ExploreEnv(gymnasium.Env):
             ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. Through
             ``gymnasium.make`` the spec's ``max_episode_steps`` truncates too: change both to
             change the budget.
+        lidar: a lidar preset name (:mod:`nbv_gym.sensor.presets`, e.g. ``"vlp-16"``) whose
+            beam pattern (channels, elevations, azimuth samples) replaces the config's.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 2}  # noqa: RUF012 (gymnasium.Env declares it an instance attribute)
@@ -152,6 +155,7 @@ class ExploreEnv(gymnasium.Env):
         time_budget_s: float | None = None,
         speed_mps: float | None = None,
         scan_time_s: float | None = None,
+        lidar: str | None = None,
     ):
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise gymnasium.error.Error(
@@ -168,7 +172,7 @@ class ExploreEnv(gymnasium.Env):
             "scan_time_s": scan_time_s,
         }
         self.config = _resolve(
-            config, task, world, noise, max_steps, observation_layers, shortcuts, effort
+            config, task, world, noise, max_steps, observation_layers, shortcuts, effort, lidar
         )
         self.render_mode = render_mode
         self.worlds, self._world_index, self._world_episodes = _distribution(self.config), 0, 0
@@ -312,7 +316,7 @@ def _pose_tuple(pose) -> tuple[float, float, float, float]:
 
 
 def _resolve(
-    config, task, world, noise, max_steps, observation_layers, shortcuts, effort
+    config, task, world, noise, max_steps, observation_layers, shortcuts, effort, lidar=None
 ) -> EnvConfig:
     """The :class:`EnvConfig` of ``config`` for ``task`` with the keyword shortcuts applied.
     The keywords go through the same typed checks as a config dict (:func:`from_dict`):
@@ -321,11 +325,13 @@ def _resolve(
         raise ConfigError(f"config: expected an EnvConfig or a dict of its fields, got {config!r}")
     world = str(world) if isinstance(world, os.PathLike) else world
     one_name = isinstance(observation_layers, str)  # refused by EnvConfig with a hint, below
+    sensor = None if lidar is None else beam_pattern(lidar)
     keywords = {
         "simulator": {
             "world": world,
             "noise": noise,
             "episode": {"max_steps": max_steps, **effort},
+            "lidar": sensor,
         },
         "observation_layers": None if one_name else observation_layers,
         **shortcuts,

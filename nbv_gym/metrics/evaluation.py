@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.core.errors import missing_file
+from nbv_gym.core.errors import MissingExtraError, missing_file
 from nbv_gym.mapping.mapfile import load_map, recorded_world
 from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.empir3d_config import Empir3DConfig
@@ -169,3 +169,155 @@ def empir3d_config(epsilon: float | None, region: float | None) -> Empir3DConfig
     """The Empir3D config of the options given; the config's own value for each option left out."""
     given = {"epsilon_m": epsilon, "region_m": region}
     return Empir3DConfig(**{k: v for k, v in given.items() if v is not None})
+
+
+#: Suffixes of the ground-truth point clouds ``evaluate --ground-truth`` scores against with
+#: Alg. 1 (a ``.npy`` is a bool grid on the benchmark grid instead).
+TRUTH_CLOUD_SUFFIXES = (".ply", ".pcd", ".xyz", ".txt", ".pts", ".csv", ".las", ".laz")
+
+
+def alg1_inputs(map_path: Path, truth_path: Path, res: float = 0.1):
+    """The probability grid, bool ground truth and :class:`GridSpec` of Alg. 1 of Aravecchia et
+    al. (IROS 2023): the map's known voxels and the ground-truth cloud's occupied voxels on the
+    lattice of ``res`` metres, compared over the 1 m cuboids that intersect the intersection of
+    both grids' bounding boxes (a saved map's grid is its box; a cloud's, its known voxels'
+    bounding box). The cuboids sit on the benchmark's lattice (G's: x, y on whole
+    metres, z from 0.2 m), so an nbv-gym map scores as ``evaluate --world`` scores it.
+
+    ``map_path``: a saved map (.npz), an OctoMap (.bt, .ot; the octomap extra) or a cloud of
+    known voxel centres with a ``probability`` property (.ply, as ``nbv-gym export --min-p 0``
+    writes); ``truth_path``: any point
+    cloud (PLY, PCD, XYZ; LAS/LAZ with the las extra)."""
+    known, probability, box = _map_voxels(map_path, res)
+    truth = _truth_voxels(truth_path, res)
+    grid = alg1_grid(box, truth, res, map_path, truth_path)
+    offset = np.rint(np.asarray(grid.origin) / res).astype(np.int64)
+    prob = np.full(grid.shape, 0.5, np.float32)
+    inside = grid.contains(known - offset)
+    prob[tuple((known - offset)[inside].T)] = probability[inside]
+    gt = np.zeros(grid.shape, bool)
+    hit = grid.contains(truth - offset)
+    gt[tuple((truth - offset)[hit].T)] = True
+    return prob, gt, grid
+
+
+def alg1_grid(box: np.ndarray, truth: np.ndarray, res: float, map_path, truth_path):
+    """The grid of whole benchmark cuboids over the intersection of the map grid's box ``box``
+    (2, 3) (first and last voxel index) and the bounding box of the (k, 3) ``truth`` voxel
+    indices; MetricInputError when they do not meet."""
+    from nbv_gym.core.grid import GridSpec
+    from nbv_gym.metrics.cuboids import CuboidConfig, benchmark_grid
+
+    low = np.maximum(box[0], truth.min(axis=0))
+    high = np.minimum(box[1], truth.max(axis=0))
+    if np.any(low > high):
+        raise MetricInputError(
+            f"{map_path} and {truth_path} do not overlap: the map's grid spans "
+            f"{_box(box, res)} m, the ground truth's {_box(truth, res)} m"
+        )
+    n = CuboidConfig().cuboid_voxels
+    anchor = np.rint(np.asarray(benchmark_grid().low) / res).astype(np.int64)
+    first = np.floor_divide(low - anchor, n) * n + anchor
+    last = (np.floor_divide(high - anchor, n) + 1) * n + anchor
+    return GridSpec.from_bounds(tuple(first * res), tuple(last * res), res)
+
+
+def _box(voxels: np.ndarray, res: float) -> str:
+    low, high = voxels.min(axis=0) * res, (voxels.max(axis=0) + 1) * res
+    return "×".join(f"[{a:.1f}, {b:.1f}]" for a, b in zip(low, high, strict=True))
+
+
+def _map_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(k, 3) int64 voxel indices and (k,) float32 probabilities of a map's known voxels, and
+    (2, 3) the first and last voxel index of its grid: a saved map's box, a cloud's bounding
+    box."""
+    if not path.is_file():
+        raise MetricInputError(f"{path}: the map file {missing_file(path)}")
+    if path.suffix == ".npz":
+        from nbv_gym.mapping.export import map_voxels
+
+        occupancy = load_map(path)
+        if not np.isclose(occupancy.grid.res, res):
+            raise MetricInputError(f"{path}: a map of {occupancy.grid.res} m voxels, not {res} m")
+        centres, probability = map_voxels(occupancy, 0.0)
+        first = np.rint(np.asarray(occupancy.grid.origin) / res).astype(np.int64)
+        box = np.stack([first, first + occupancy.grid.shape - 1])
+    elif path.suffix == ".ply":
+        centres, probability = _probability_cloud(path)
+        box = None
+    elif path.suffix in (".bt", ".ot"):
+        centres, probability = _octomap_voxels(path, res)
+        box = None
+    else:
+        raise MetricInputError(
+            f"{path}: with a ground-truth cloud, --map takes a saved map (.npz), an OctoMap "
+            "(.bt, .ot) or a cloud of known voxels with a probability property (.ply, nbv-gym "
+            "export --min-p 0)"
+        )
+    if len(centres) == 0:
+        raise MetricInputError(f"{path}: the map holds no known voxel")
+    voxels = np.floor(centres / res).astype(np.int64)
+    if not np.allclose(centres, (voxels + 0.5) * res, atol=1e-3 * res):
+        raise MetricInputError(f"{path}: the points are not the centres of {res} m voxels")
+    if box is None:
+        box = np.stack([voxels.min(axis=0), voxels.max(axis=0)])
+    return voxels, probability.astype(np.float32), box
+
+
+def _octomap_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray]:
+    """(k, 3) float64 centres of the ``res`` voxels of an OctoMap's leaves (a pruned leaf
+    split into its voxels) and their (k,) float32 occupancy probabilities."""
+    try:
+        import pyoctomap
+    except ImportError:
+        raise MissingExtraError("pyoctomap", "octomap") from None
+    tree = pyoctomap.OcTree(res)
+    if path.suffix == ".bt":
+        read = tree.readBinary(str(path))
+    else:
+        read = tree.read(str(path))
+        tree = read if read is not None else tree
+    if not read or not np.isclose(tree.getResolution(), res):
+        raise MetricInputError(f"{path}: not a readable OctoMap of {res} m voxels")
+    centres, probability = [], []
+    for leaf in tree.begin_leafs():
+        centre, size = np.asarray(leaf.getCoordinate(), float), float(leaf.getSize())
+        n = max(1, round(size / res))
+        steps = (np.arange(n) - (n - 1) / 2) * res
+        block = np.stack(np.meshgrid(steps, steps, steps, indexing="ij"), -1).reshape(-1, 3)
+        centres.append(centre + block)
+        probability.append(np.full(len(block), leaf.current_node.getOccupancy(), np.float32))
+    if not centres:
+        return np.empty((0, 3)), np.empty(0, np.float32)
+    return np.concatenate(centres), np.concatenate(probability)
+
+
+def _probability_cloud(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    try:
+        cloud = trimesh.load(str(path), process=False)
+        vertex = cloud.metadata["_ply_raw"]["vertex"]["data"]
+        centres = np.column_stack([vertex[a] for a in "xyz"]).astype(np.float64)
+        probability = np.asarray(vertex["probability"], np.float32)
+    except (KeyError, ValueError, TypeError, IndexError) as error:
+        raise MetricInputError(
+            f"{path}: not a PLY of voxel centres with a 'probability' property ({error!r})"
+        ) from None
+    bad = ~((probability >= 0) & (probability <= 1))
+    if bad.any():
+        raise MetricInputError(f"{path}: {int(bad.sum())} probabilities outside [0, 1]")
+    return centres, probability
+
+
+def _truth_voxels(path: Path, res: float) -> np.ndarray:
+    """(k, 3) int64 unique voxel indices holding a point of the ground-truth cloud."""
+    from nbv_gym.core.errors import DataFileError
+    from nbv_gym.worlds.scenes.clouds import cloud_voxels, read_cloud
+
+    if not path.is_file():
+        raise MetricInputError(f"{path}: the ground-truth file {missing_file(path)}")
+    try:
+        return cloud_voxels(read_cloud(path), res)
+    except DataFileError as error:
+        raise MetricInputError(str(error)) from None

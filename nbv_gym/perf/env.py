@@ -7,6 +7,8 @@ Keys of :func:`run`:
   the scan, its insertion into the map, the viewpoint statistics update, the navigation
   re-projection and plan, the quality update (probability blocks and cuboid metrics), and the
   observation with ``info``.
+- ``env_step_os1_64_ms``, ``env_lidar_os1_64_ms``: the same step and its scan with the OS1-64
+  preset (``lidar="os1-64"``: 64 beams × 1024 azimuth samples, 8 × the default's rays).
 - ``env_reset_ms``: one reset after the first (median of a few; it takes the first scan).
 - ``env_rss_mb``: resident memory (VmRSS, MiB) of a fresh process holding one environment after
   3 resets and 20 steps; ``env_rss_anon_mb`` its anonymous part (without the shared libraries'
@@ -55,6 +57,13 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     env.reset(seed=0)  # compiles and builds everything once
     resets = [_seconds(functools.partial(env.reset, seed=seed)) for seed in range(1, RESETS + 1)]
     figures = {"env_reset_ms": 1e3 * float(np.median(resets)), **_steps(env)}
+    progress(f"{STEPS} env steps on {WORLD} with the OS1-64 preset")
+    dense = ExploreEnv(world=WORLD, noise=1, max_steps=STEPS + 5, lidar="os1-64")
+    dense.reset(seed=0)
+    os1_64 = _steps(dense)
+    figures.update(
+        env_step_os1_64_ms=os1_64["env_step_ms"], env_lidar_os1_64_ms=os1_64["env_lidar_ms"]
+    )
     progress("memory of one environment in a fresh process")
     figures.update(_memory())
     progress(f"a closest-frontier episode on {WORLD}")

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from nbv_gym.core.config import check, from_dict, read_toml
+from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.protocol import (
     BUDGET_SCANS,
     SCAN_TIME_S,
@@ -22,6 +23,7 @@ from nbv_gym.core.protocol import (
     check_noise_level,
 )
 from nbv_gym.env.layers import OPTIONAL_LAYERS
+from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
 from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
 
 #: Algorithms ``nbv-gym train`` supports. MaskablePPO reads the action mask; PPO and A2C do not,
@@ -86,7 +88,8 @@ class TrainConfig:
       travel and scans charged) or ``"explore"`` (terminate at 70 % discovered);
       :mod:`nbv_gym.core.protocol`.
     - ``noise``, ``max_steps``: the environment's localisation noise level and episode length
-      (the budget of the budget task; the time task caps scans itself).
+      (the budget of the budget task; the time task caps scans itself); ``lidar``: the lidar
+      preset (:mod:`nbv_gym.sensor.presets`).
     - ``time_budget_s``, ``speed_mps``, ``scan_time_s``: the time task's budget and the effort
       model (:class:`~nbv_gym.core.protocol.EffortModel`).
     - ``observation_layers``: optional layers (e.g. ``gain_nobs``) the agent observes besides the
@@ -118,6 +121,7 @@ class TrainConfig:
     episodes_per_world: int = 4
     task: str = "budget"
     noise: int = 1
+    lidar: str = DEFAULT_LIDAR
     max_steps: int = BUDGET_SCANS
     time_budget_s: float = TIME_BUDGET_S
     speed_mps: float = SPEED_MPS
@@ -163,6 +167,8 @@ class TrainConfig:
         check(self.episodes_per_world >= 1, "episodes_per_world", "must be ≥ 1")
         check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
         check_noise_level(self.noise)
+        if self.lidar not in LIDAR_PRESETS:
+            raise ConfigError(f"lidar: {UnknownNameError('lidar', self.lidar, LIDAR_PRESETS)}")
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
         check(self.time_budget_s > 0, "time_budget_s", f"must be > 0, got {self.time_budget_s}")
         EffortModel(self.speed_mps, self.scan_time_s)  # checks both

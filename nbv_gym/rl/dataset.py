@@ -49,13 +49,14 @@ def record_dataset(
     progress: Callable[[str], None] | None = None,
     task: str = "explore",
     effort: dict[str, Any] | None = None,
+    lidar: str = "os1-16",
 ):
     """Run ``episodes`` episodes of ``policy`` on ``world`` (reset seeds ``seed``, ``seed + 1``,
     …) under ``task`` and write them as a Minari dataset under the folder ``out``; the
     ``MinariDataset``. ``max_steps`` is the truncation of the explore task, the budget in
     scans of the budget task, or the scan cap of the time task; ``effort``: the time task's
     ``time_budget_s`` and the effort model's ``speed_mps`` and ``scan_time_s`` (keywords of
-    the environment)."""
+    the environment); ``lidar`` a lidar preset (:mod:`nbv_gym.sensor.presets`)."""
     if episodes < 1:
         raise RecordError(f"--episodes must be ≥ 1, got {episodes}")
     dataset_id = check_path_of_names(dataset_id or default_id(world, policy), "--dataset-id", 3)
@@ -71,6 +72,7 @@ def record_dataset(
         TASK_IDS[task], world=world, noise=noise, max_steps=max_steps,
         max_episode_steps=max_steps, observation_layers=tuple(required_layers(agent)),
         **(effort or {}),
+        lidar=lidar,
     )  # fmt: skip
     buffers = []
     for k in range(episodes):
@@ -85,7 +87,7 @@ def record_dataset(
             dataset_id, buffers, env=env, data_format="arrow", algorithm_name=policy,
             author="nbv-gym", code_permalink=code_permalink(), requirements=requirements(),
             description=f"{episodes} episodes of {policy} on {world} ({task} task, noise "
-            f"{noise}), reset seeds {seed}…{seed + episodes - 1}; nbv-gym record",
+            f"{noise}, lidar {lidar}), reset seeds {seed}…{seed + episodes - 1}; nbv-gym record",
         )  # fmt: skip
 
 

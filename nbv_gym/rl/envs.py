@@ -33,7 +33,7 @@ class WorldCycleEnv(gymnasium.Env):
     ``episodes_per_world`` are the distribution's options (:class:`~nbv_gym.env.EnvConfig`);
     ``effort`` holds the time task's ``time_budget_s`` and the effort model's ``speed_mps`` and
     ``scan_time_s`` (keywords of :class:`~nbv_gym.env.ExploreEnv`; ``max_steps`` None: the time
-    task's scan cap).
+    task's scan cap); ``lidar`` a lidar preset (:mod:`nbv_gym.sensor.presets`).
     """
 
     metadata = {"render_modes": []}  # noqa: RUF012 (gymnasium.Env declares it an instance attribute)
@@ -50,6 +50,7 @@ class WorldCycleEnv(gymnasium.Env):
         world_pool_size: int = POOL_SIZE,
         episodes_per_world: int = 1,
         effort: dict[str, float] | None = None,
+        lidar: str = "os1-16",
     ):
         self.worlds = tuple(worlds)
         self.reward_scale = reward_scale
@@ -65,6 +66,7 @@ class WorldCycleEnv(gymnasium.Env):
             time_budget_s=(effort or {}).get("time_budget_s"),
             speed_mps=(effort or {}).get("speed_mps"),
             scan_time_s=(effort or {}).get("scan_time_s"),
+            lidar=lidar,
         )
         self._world, self._episodes = self.worlds[0], 0
         self.action_space = self.env.action_space

@@ -237,6 +237,7 @@ def _env_factory(config: TrainConfig, worlds: tuple[str, ...], monitor: str = "l
         noise=config.noise,
         max_steps=None if config.task == "time" else config.max_steps,
         effort=config.effort(),
+        lidar=config.lidar,
         observation_layers=config.observation_layers,
         reward_scale=config.reward_scale,
         invalid_action="raise" if config.algorithm == "MaskablePPO" else "snap",

@@ -240,6 +240,27 @@ def with_overrides(config: SweepConfig, **values: Any) -> SweepConfig:
     return replace(config, **{k: v for k, v in values.items() if v is not None})
 
 
+def with_lidar(config: SweepConfig, lidar: str | None) -> SweepConfig:
+    """``config`` with the beam pattern of the lidar preset ``lidar`` in ``[env.simulator.lidar]``
+    (unchanged for None, or for the default preset on a config that sets no pattern key); a
+    config that sets the beam pattern itself is refused rather than silently overridden."""
+    from nbv_gym.sensor.presets import DEFAULT_LIDAR, PATTERN_KEYS, beam_pattern
+
+    if lidar is None:
+        return config
+    pattern = beam_pattern(lidar)  # an unknown preset fails here, naming the near miss
+    table = config.env.get("simulator", {}).get("lidar", {})
+    clash = sorted(set(table) & set(PATTERN_KEYS)) if isinstance(table, Mapping) else []
+    if clash:
+        raise ConfigError(
+            f"--lidar {lidar}: the config sets env.simulator.lidar.{clash[0]} itself; drop "
+            "--lidar or those keys (the beam pattern has one source)"
+        )
+    if lidar == DEFAULT_LIDAR:
+        return config
+    return replace(config, env=merge(config.env, {"simulator": {"lidar": pattern}}))
+
+
 def world_name(world: str) -> str:
     """The name of a benchmark world or of the world in a spec file."""
     if world.endswith(".toml"):

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nbv_gym.worlds.scenes import SceneSpec
 from nbv_gym.worlds.world import World
 
 MAX_POINTS_3D = 60_000
@@ -27,7 +28,7 @@ def save_preview(world: World, path: str | Path) -> Path:
     figure.colorbar(scatter, ax=[top, oblique], shrink=0.7, label="height z (m)")
     figure.suptitle(
         f"{world.name}: {world.spec.description}\n"
-        f"{len(world.layout.xy)} assets, {len(world.faces):,} triangles, "
+        f"{_contents(world)}, {len(world.faces):,} triangles, "
         f"{len(points):,} ground-truth voxels at {world.ground_truth.res} m"
     )
     path = Path(path)
@@ -49,9 +50,9 @@ def _top_down(axes, world: World, points: np.ndarray) -> None:
         vmax=points[:, 2].max(),
         rasterized=True,
     )
-    x0, y0, x1, y1 = world.spec.placement.window_m
+    x0, y0, x1, y1 = world.window_m
     axes.add_patch(_rectangle(x0, y0, x1 - x0, y1 - y0, "window"))
-    axes.add_patch(_circle(world.spec.placement.clear_radius_m))
+    axes.add_patch(_circle(_clear_radius(world)))
     axes.plot(0, 0, "r^", markersize=9, label="start")
     (gx0, gy0), (gx1, gy1) = world.ground_bounds_xy
     axes.set(
@@ -63,6 +64,19 @@ def _top_down(axes, world: World, points: np.ndarray) -> None:
         aspect="equal",
     )
     axes.legend(loc="upper right", fontsize=8)
+
+
+def _contents(world: World) -> str:
+    if isinstance(world.spec, SceneSpec):
+        return f"scene {world.spec.path.name} ({world.spec.scene.kind})"
+    return f"{len(world.layout.xy)} assets"
+
+
+def _clear_radius(world: World) -> float:
+    spec = world.spec
+    return (
+        spec.scene.clear_radius_m if isinstance(spec, SceneSpec) else spec.placement.clear_radius_m
+    )
 
 
 def _oblique(axes, points: np.ndarray):

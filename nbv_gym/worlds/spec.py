@@ -19,6 +19,7 @@ from typing import Any
 from nbv_gym.core.config import check, from_dict, parse_toml, read_text, to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError, missing_file
 from nbv_gym.core.names import check_name
+from nbv_gym.worlds.scenes.spec import SceneSpec, parse_scene_spec
 from nbv_gym.worlds.trees import TreeConfig
 
 ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
@@ -129,6 +130,11 @@ class WorldSpec:
             f"{self.placement.window_m}, so that every asset stands on it",
         )
 
+    @property
+    def window_m(self) -> tuple[float, float, float, float]:
+        """Where the assets stand (``placement.window_m``)."""
+        return self.placement.window_m
+
     def check_inside(self, low_xy: tuple[float, float], high_xy: tuple[float, float], what: str):
         """Raise :class:`ConfigError` naming ``placement.window_m`` unless the window lies in
         the box ``low_xy``–``high_xy`` (metres) of ``what`` (e.g. the map of a simulator)."""
@@ -149,9 +155,13 @@ class WorldSpec:
         return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def parse_spec(text: str, source: str) -> WorldSpec:
-    """The :class:`WorldSpec` of TOML ``text``; errors name ``source`` and the offending key."""
+def parse_spec(text: str, source: str, base: Path | None = None) -> AnySpec:
+    """The spec of TOML ``text``: a :class:`WorldSpec`, or a
+    :class:`~nbv_gym.worlds.scenes.spec.SceneSpec` when it has a ``[scene]`` table (whose file
+    is taken relative to ``base``); errors name ``source`` and the offending key."""
     data = parse_toml(text, source)
+    if "scene" in data:
+        return parse_scene_spec(data, source, base)
     for key in ("name", "placement", "assets"):
         if key not in data:
             raise ConfigError(f"{source}: missing required key {key!r}")
@@ -166,8 +176,9 @@ def benchmark_names() -> list[str]:
     return sorted(path.name.removesuffix(".toml") for path in _spec_files())
 
 
-def load_spec(name_or_path: str | Path) -> WorldSpec:
-    """The spec of a benchmark world name (e.g. ``"pp1-trees"``) or of a ``.toml`` file path."""
+def load_spec(name_or_path: str | Path) -> AnySpec:
+    """The spec of a benchmark world name (e.g. ``"pp1-trees"``) or of a ``.toml`` file path
+    (procedural, or a scene: :mod:`nbv_gym.worlds.scenes`)."""
     if not str(name_or_path).strip():
         raise ConfigError(
             "The world name is empty; give a benchmark world (see `nbv-gym worlds list`) or "
@@ -177,17 +188,26 @@ def load_spec(name_or_path: str | Path) -> WorldSpec:
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():
             raise ConfigError(f"World spec file {str(path)!r} {missing_file(path)}.")
-        return parse_spec(read_text(path, "World spec file"), str(path))
+        return parse_spec(read_text(path, "World spec file"), str(path), path.parent)
     files = {p.name.removesuffix(".toml"): p for p in _spec_files()}
     if str(name_or_path) not in files:
         raise UnknownNameError("world", str(name_or_path), files)
-    return parse_spec(files[str(name_or_path)].read_text(), str(name_or_path))
+    spec = parse_spec(files[str(name_or_path)].read_text(), str(name_or_path))
+    assert isinstance(spec, WorldSpec)  # the shipped specs are procedural
+    return spec
 
 
 def asset_type(spec) -> str:
-    """The asset type of a world spec, or ``"mixed"`` when it mixes several."""
+    """The asset type of a world spec, ``"mixed"`` when it mixes several, ``"scene"`` for a
+    scene world."""
+    if not isinstance(spec, WorldSpec):
+        return "scene"
     kinds = [kind for kind, weight in spec.assets.mix.items() if weight > 0]
     return kinds[0] if len(kinds) == 1 else "mixed"
+
+
+#: Any world spec: procedural assets or a scene file.
+AnySpec = WorldSpec | SceneSpec
 
 
 def _spec_files() -> list[Any]:

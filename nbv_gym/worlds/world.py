@@ -14,14 +14,16 @@ from pathlib import Path
 import numpy as np
 
 from nbv_gym.core.arrays import FloatArray, IntArray
-from nbv_gym.core.config import to_dict
+from nbv_gym.core.config import check, to_dict
 from nbv_gym.core.names import check_name
 from nbv_gym.core.progress import say, say_if_compiling
 from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.worlds import shapes
 from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
 from nbv_gym.worlds.placement import Layout, clear_start, layout
-from nbv_gym.worlds.spec import ASSET_TYPES, WorldSpec, load_spec
+from nbv_gym.worlds.scenes.build import SceneFrame, build_scene, empty_layout
+from nbv_gym.worlds.scenes.spec import SceneSpec
+from nbv_gym.worlds.spec import ASSET_TYPES, AnySpec, WorldSpec, load_spec
 from nbv_gym.worlds.trees import grow_tree, tree_mesh
 
 #: Bump when generation changes, so cached worlds are rebuilt.
@@ -39,16 +41,19 @@ class World:
         vertices: (V, 3) float32 vertices of the whole scene (assets and ground plane), metres.
         faces: (F, 3) int32 triangles.
         asset_faces: number of leading faces that belong to assets (the rest is ground).
-        layout: the placed assets.
-        ground_truth: the assets' surface voxels.
+        layout: the placed assets (none in a scene world).
+        ground_truth: the assets' (or the scene's) surface voxels.
+        frame: where a scene world lies (:class:`~nbv_gym.worlds.scenes.build.SceneFrame`);
+            None for a procedural world.
     """
 
-    spec: WorldSpec
+    spec: AnySpec
     vertices: FloatArray
     faces: IntArray
     asset_faces: int
     layout: Layout
     ground_truth: GroundTruth
+    frame: SceneFrame | None = None
 
     @property
     def name(self) -> str:
@@ -57,9 +62,41 @@ class World:
 
     @property
     def ground_bounds_xy(self) -> tuple[tuple[float, float], tuple[float, float]]:
-        """((x_min, y_min), (x_max, y_max)) of the ground plane, metres."""
+        """((x_min, y_min), (x_max, y_max)) of the ground the robot may stand on, metres."""
+        if not isinstance(self.spec, WorldSpec):
+            return self.scene_frame.ground_xy_m
         half = self.spec.ground_size_m / 2
         return (-half, -half), (half, half)
+
+    @property
+    def window_m(self) -> tuple[float, float, float, float]:
+        """(x_min, y_min, x_max, y_max) metres: where the assets (or the scene) stand, the box
+        the goal grid is fitted to."""
+        if isinstance(self.spec, WorldSpec):
+            return self.spec.window_m
+        return self.scene_frame.window_m
+
+    @property
+    def scene_frame(self) -> SceneFrame:
+        """Where a scene world lies; ValueError for a procedural world (it has none)."""
+        if self.frame is None:
+            raise ValueError(f"world {self.name!r} is procedural: it has no scene frame")
+        return self.frame
+
+    def check_inside(self, low_xy: tuple[float, float], high_xy: tuple[float, float], what: str):
+        """Raise :class:`ConfigError` unless :attr:`window_m` lies in the box ``low_xy``–
+        ``high_xy`` (metres) of ``what`` (e.g. the goal grid of a simulator)."""
+        if isinstance(self.spec, WorldSpec):
+            return self.spec.check_inside(low_xy, high_xy, what)
+        x0, y0, x1, y1 = self.window_m
+        inside = low_xy[0] <= x0 and low_xy[1] <= y0 and x1 <= high_xy[0] and y1 <= high_xy[1]
+        check(
+            inside,
+            "scene",
+            f"scene world {self.name!r} spans x from {x0:.1f} to {x1:.1f} m and y from {y0:.1f} "
+            f"to {y1:.1f} m around its start, beyond {what} (x from {low_xy[0]:g} to "
+            f"{high_xy[0]:g} m, y from {low_xy[1]:g} to {high_xy[1]:g} m)",
+        )
 
     def ray_scene(self):
         """The Embree scene of this world (built once, then shared)."""
@@ -72,8 +109,12 @@ class World:
         return RayScene(self.vertices, self.faces)
 
 
-def build_world(spec: WorldSpec) -> World:
+def build_world(spec: AnySpec) -> World:
     """Generate the world of ``spec`` (meshes, layout, ground truth); no caching."""
+    if isinstance(spec, SceneSpec):
+        built = build_scene(spec, RESOLUTION_M)
+        return World(spec, built.vertices, built.faces, built.scene_faces, empty_layout(),
+                     built.ground_truth, built.frame)  # fmt: skip
     placed = layout(spec.placement, spec.assets)
     library = _asset_library(spec, placed)
     meshes = [library[(k, v)] for k, v in zip(placed.kind, _variants(placed), strict=True)]
@@ -138,7 +179,7 @@ def cache_dir() -> Path:
     return Path(user_cache_dir("nbv-gym"))
 
 
-def cache_path(spec: WorldSpec) -> Path:
+def cache_path(spec: AnySpec) -> Path:
     """The cache file of ``spec``, keyed by its content and the generator version (the name is
     checked again: only a safe name becomes a file name)."""
     name = check_name(spec.name, "name")
@@ -146,7 +187,7 @@ def cache_path(spec: WorldSpec) -> Path:
 
 
 def load_world(
-    name_or_path: str | Path | WorldSpec, cache: bool = True, rebuild: bool = False
+    name_or_path: str | Path | AnySpec, cache: bool = True, rebuild: bool = False
 ) -> World:
     """The world of a benchmark name, a spec file path or a :class:`WorldSpec`, loaded from the
     cache when built before (and built, then cached, otherwise; ``rebuild``: built again, the
@@ -155,7 +196,11 @@ def load_world(
     Processes that want the same uncached world at once (the workers of a sweep or a score)
     build it once: the builder holds a lock file beside the cache file, the others wait for it,
     then read what it cached."""
-    spec = name_or_path if isinstance(name_or_path, WorldSpec) else load_spec(name_or_path)
+    spec = (
+        name_or_path
+        if isinstance(name_or_path, (WorldSpec, SceneSpec))
+        else load_spec(name_or_path)
+    )
     if not cache:
         return _build(spec, None)
     path = cache_path(spec)
@@ -170,7 +215,7 @@ def load_world(
         return _build(spec, path)
 
 
-def _cached(path: Path, spec: WorldSpec) -> World | None:
+def _cached(path: Path, spec: AnySpec) -> World | None:
     """The world cached at ``path``, or None when there is none (a corrupt or partial file is
     removed, to be rebuilt)."""
     if not path.exists():
@@ -182,10 +227,10 @@ def _cached(path: Path, spec: WorldSpec) -> World | None:
         return None
 
 
-def _build(spec: WorldSpec, path: Path | None) -> World:
+def _build(spec: AnySpec, path: Path | None) -> World:
     """Build the world of ``spec`` and write it to the cache file ``path`` (None: not cached)."""
     say_if_compiling()
-    say(f"building world {spec.name} (mesh + ground truth), once per spec…")
+    say(f"building world {spec.name} (mesh + ground truth), once per content…")
     start = time.perf_counter()
     world = build_world(spec)
     if path is not None:
@@ -215,11 +260,12 @@ def _write(path: Path, world: World) -> None:
         kind=placed.kind,
         variant=placed.variant,
         spec=json.dumps(to_dict(world.spec)),
+        frame=json.dumps(to_dict(world.frame) if world.frame is not None else None),
     )
     os.replace(temporary, path)
 
 
-def _read(path: Path, spec: WorldSpec) -> World:
+def _read(path: Path, spec: AnySpec) -> World:
     with np.load(path) as data:
         placed = Layout(
             data["xy"],
@@ -230,4 +276,14 @@ def _read(path: Path, spec: WorldSpec) -> World:
             data["variant"],
         )
         truth = GroundTruth(data["ground_truth"], float(data["res"]))
-        return World(spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth)
+        frame = _frame(json.loads(str(data["frame"]))) if "frame" in data.files else None
+        return World(
+            spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth, frame
+        )
+
+
+def _frame(data: dict | None) -> SceneFrame | None:
+    if data is None:
+        return None
+    (x0, y0), (x1, y1) = data["ground_xy_m"]
+    return SceneFrame(tuple(data["window_m"]), ((x0, y0), (x1, y1)), tuple(data["offset_m"]))

@@ -1,0 +1,30 @@
+"""``nbv-gym score --world SPEC``: a suite's parts on the benchmark worlds run on your own, a suite
+of its own (its scorecards rank apart from the benchmark's)."""
+
+from __future__ import annotations
+
+import pytest
+
+from nbv_gym.benchmark.suites import QUICK
+from nbv_gym.core.errors import NbvGymError
+from nbv_gym.worlds import load_spec
+from tests.helpers import write_tiny_world
+
+
+def test_a_suite_on_your_worlds_keeps_its_parts_on_the_benchmark_worlds(tmp_path):
+    spec = str(write_tiny_world(tmp_path))
+    own = QUICK.with_worlds((spec,))
+    kept = ["time-benchmark", "benchmark", "explore"]  # the parts on the benchmark worlds
+    assert [p.split for p in own.parts] == kept
+    for part, original in zip(own.parts, map(QUICK.part, kept), strict=True):
+        assert part.worlds == (spec,) and part.task == original.task
+        assert (part.noise, part.repeats) == (original.noise, original.repeats)
+    assert own.name == "quick-own" and own.runs == 3 * (3 * 2)  # parts × (noise × repeats)
+    assert own.content_hash() != QUICK.content_hash()
+    worlds = own.content()["parts"][0]["worlds"]
+    assert worlds == {"tiny-cuboids": load_spec(spec).digest()}
+
+
+def test_a_bad_world_fails_before_any_run(tmp_path):
+    with pytest.raises(NbvGymError, match="does not exist"):
+        QUICK.with_worlds((str(tmp_path / "missing.toml"),))

@@ -28,7 +28,7 @@ from nbv_gym.core.pose import LocalisationNoise, Pose
 from nbv_gym.mapping.occupancy import OccupancyMap
 from nbv_gym.mapping.state import ExplorationState, MappingConfig
 from nbv_gym.sensor.lidar import Lidar, LidarConfig, Scan
-from nbv_gym.worlds.scene import RayScene
+from nbv_gym.worlds.raycast import RayScene
 
 #: Robot ground poses (x, y, yaw) of the benchmark scans: a short walk around the start.
 BENCH_POSES = ((0.0, 0.0, 0.0), (2.0, 0.0, 0.5), (4.0, 1.0, 1.0), (3.0, 3.0, 1.5), (0.0, 3.0, 2.0),

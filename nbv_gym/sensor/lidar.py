@@ -16,7 +16,7 @@ from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import PoseError
 from nbv_gym.core.pose import LocalisationNoise, Pose
-from nbv_gym.worlds.scene import RayScene
+from nbv_gym.worlds.raycast import RayScene
 
 if TYPE_CHECKING:
     from nbv_gym.worlds import World

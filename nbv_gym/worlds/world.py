@@ -104,7 +104,7 @@ class World:
 
     @cached_property
     def _ray_scene(self):
-        from nbv_gym.worlds.scene import RayScene
+        from nbv_gym.worlds.raycast import RayScene
 
         return RayScene(self.vertices, self.faces)
 

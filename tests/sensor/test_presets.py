@@ -17,7 +17,7 @@ from nbv_gym.core.pose import LocalisationNoise, Pose
 from nbv_gym.env import ExploreEnv
 from nbv_gym.sensor.lidar import Lidar, LidarConfig
 from nbv_gym.sensor.presets import LIDAR_PRESETS, lidar_config, lidar_preset
-from nbv_gym.worlds.scene import RayScene
+from nbv_gym.worlds.raycast import RayScene
 from tests.helpers import run_cli
 
 WORLD = "pp1-cuboids"

@@ -35,7 +35,7 @@ class _App(typer.Typer):
         try:
             code = super().__call__(*args, **{**kwargs, "standalone_mode": False})
         except NbvGymError as error:
-            _fail(str(error))
+            _fail(str(error), getattr(error, "exit_code", 2))
         except typer.Abort:
             _fail("aborted.", 1)
         except typer.TyperException as error:  # a bad option or argument (Click's usage errors)

@@ -39,7 +39,6 @@ timed; any statistic over no value (a summary with ``n`` = 0).
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import re
 import time
@@ -249,11 +248,10 @@ def _one_line(match: re.Match[str]) -> str:
 
 def load_scorecard(path: str | Path) -> dict[str, Any]:
     """The scorecard in ``path``; :class:`ScorecardError` if it is not one."""
+    from nbv_gym.core.inputs import read_json
+
     path = Path(path)
-    try:
-        card = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise ScorecardError(f"Cannot read scorecard {path}: {error}") from None
+    card = read_json(path, "Scorecard")
     if not isinstance(card, dict) or card.get("format") != FORMAT:
         raise ScorecardError(
             f'{path} is not an nbv-gym scorecard (no "format": "{FORMAT}"); give the '

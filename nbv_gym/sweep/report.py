@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.core.inputs import MAX_TABLE_BYTES, open_input
 from nbv_gym.mapping.statistics import STATISTICS
 from nbv_gym.policies import PAPER_POLICIES
 from nbv_gym.reporting.formatting import (
@@ -102,8 +103,10 @@ def load_results(results: Path) -> Results:
                 "`nbv-gym sweep CONFIG --out DIR` first, then `nbv-gym report DIR`."
             )
         ResultStore(results).consolidate()
-    runs = pd.read_csv(results / "runs.csv", dtype={"asset": str})
-    steps = pd.read_csv(results / "steps.csv")
+    with open_input(results / "runs.csv", "Sweep table", MAX_TABLE_BYTES) as file:
+        runs = pd.read_csv(file, dtype={"asset": str})
+    with open_input(results / "steps.csv", "Sweep table", MAX_TABLE_BYTES) as file:
+        steps = pd.read_csv(file)
     runs["asset"] = runs["asset"].fillna("")
     target, order = _config_facts(results / "sweep.toml")
     labels = oracle_labels(runs)
@@ -281,7 +284,8 @@ def _read_cuboids(path: Path, filters, columns=None):
 
     if not path.exists():
         return None
-    table = pq.read_table(path, filters=filters or None, columns=columns)
+    with open_input(path, "Cuboid table", MAX_TABLE_BYTES) as file:
+        table = pq.read_table(file, filters=filters or None, columns=columns)
     return table.to_pandas() if table.num_rows else None
 
 
@@ -310,7 +314,8 @@ def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> 
 def _read_table2(path: Path):
     import pandas as pd
 
-    return pd.read_csv(path, index_col=0)
+    with open_input(path, "Table", MAX_TABLE_BYTES) as file:
+        return pd.read_csv(file, index_col=0)
 
 
 def _fig1_lines(ok, data: Results, out: Path) -> list[str]:

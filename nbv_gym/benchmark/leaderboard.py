@@ -33,6 +33,7 @@ import numpy as np
 from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
 from nbv_gym.benchmark.suites import HEADLINE_SPLIT
 from nbv_gym.core.errors import NbvGymError
+from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
 
 #: The split whose score ranks the table.
 RANK_SPLIT = HEADLINE_SPLIT
@@ -109,9 +110,21 @@ def gather(paths: list[Path], references: bool) -> list[Entry]:
         current, stale = current_references()
         entries += [Entry(c["policy"]["name"], c, "references") for c in current]
         pending = pending_note(stale)
+    given: dict[Path, Path] = {}
     for path in paths:
         path = path / "scorecard.json" if path.is_dir() else path
+        if path.resolve() in given:
+            raise LeaderboardError(
+                f"{path} is given twice (also as {given[path.resolve()]}); each scorecard "
+                "counts once."
+            )
+        given[path.resolve()] = path
         card = load_scorecard(path)
+        if RANK_SPLIT not in card["aggregates"]:
+            raise LeaderboardError(
+                f"{path} has no {RANK_SPLIT} split, which ranks the leaderboard; score the "
+                "policy on a suite with one (`nbv-gym score POLICY --suite standard`)."
+            )
         label = card["policy"]["name"]
         if any(e.label == label for e in entries):
             label = f"{label} ({path})"
@@ -211,8 +224,8 @@ def leaderboard_markdown(entries: list[Entry], pending: str = "") -> str:
     lines = [
         "# Leaderboard",
         "",
-        f"Suite `{suite['name']}` (hash `{suite['hash']}`), protocol version {version}: "
-        f"{suite['description']}.",
+        f"Suite {markdown_code(suite['name'])} (hash {markdown_code(suite['hash'])}), protocol "
+        f"version {version}: {markdown_text(suite['description'])}.",
         "",
         *([f"**{pending}**", ""] if pending else []),
         _legend(best),
@@ -276,7 +289,12 @@ def _tables(entries: list[Entry], best: Entry, rank: bool) -> str:
     from nbv_gym.reporting.formatting import markdown_table
 
     ranks = [str(i + 1) if rank else "oracle" for i in range(len(entries))]
-    scores = ["rank", "policy", *SPLIT_COLUMNS.values(), f"P(better than {best.label})"]
+    scores = [
+        "rank",
+        "policy",
+        *SPLIT_COLUMNS.values(),
+        f"P(better than {markdown_text(best.label)})",
+    ]
     effort = ["rank", "policy", "Q at the budget", *(f"Q at {d:g} m" for d in MATCHED_PATHS_M),
               "path (m)", "time (s)", "Pareto (Q, path)", "decision (ms/step)"]  # fmt: skip
     dominated = pareto_dominated(entries)
@@ -325,7 +343,7 @@ def _legend(best: Entry) -> str:
         "teleports), the paper's protocol Q_paper at 70 % discovered; neither charges travel. "
         "[brackets]: 95 % intervals, stratified "
         "bootstrap (runs resampled within each world × noise level). "
-        f"P(better than {best.label}): the probability that a run of the policy scores higher than a run of "
+        f"P(better than {markdown_text(best.label)}): the probability that a run of the policy scores higher than a run of "
         f"{whom} on the same test world and noise level (ties ½); 0.5 = no difference. "
         "Decision time: the policy's `act`, mean per step. **Bold**: scorecards given on the "
         "command line; the others are the shipped references."
@@ -333,7 +351,8 @@ def _legend(best: Entry) -> str:
 
 
 def _name(entry: Entry) -> str:
-    return f"`{entry.label}`" if entry.reference else f"**`{entry.label}`**"
+    code = markdown_code(entry.label)
+    return code if entry.reference else f"**{code}**"
 
 
 def _score_row(rank: str, entry: Entry, best: Entry) -> list[Any]:
@@ -367,7 +386,9 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
         ),
         _fmt(means.get("path_length_m"), ".0f"),
         _fmt(effort.get("elapsed_s"), ".0f"),
-        f"dominated by `{dominated[entry.label]}`" if entry.label in dominated else "front",
+        f"dominated by {markdown_code(dominated[entry.label])}"
+        if entry.label in dominated
+        else "front",
         _fmt(None if decision is None else 1000 * decision, ".2f"),
     ]
 
@@ -393,7 +414,9 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
         if not curve:
             continue
         colour, style = colours[entry.label], "--" if entry.oracle else "-"
-        ax.plot(TIME_GRID_S, curve["mean"], style, color=colour, label=entry.label, linewidth=1.4)
+        ax.plot(
+            TIME_GRID_S, curve["mean"], style, color=colour, label=printable(entry.label), lw=1.4
+        )
         ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
     ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
     ax.set_ylabel(f"Q ({RANK_SPLIT} split, mean and interquartile band)")
@@ -428,7 +451,7 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
             fraction, low, high = performance_profile(values, tasks, tau, rng)
             style = "--" if entry.oracle else "-"
             colour = colours[entry.label]
-            ax.plot(tau, fraction, style, color=colour, label=entry.label, linewidth=1.4)
+            ax.plot(tau, fraction, style, color=colour, label=printable(entry.label), lw=1.4)
             ax.fill_between(tau, low, high, color=colour, alpha=0.15, linewidth=0)
         ax.set_xlabel(f"τ ({label})")
         ax.set_ylim(0, 1.02)

@@ -139,12 +139,17 @@ def build_scorecard(
         "policy": policy,
         "optimality_target": TARGET_SCORE,
         "runs": runs,
-        "aggregates": {
-            part.split: aggregate(runs, part.split, part.metric) for part in suite.parts
-        },
+        "aggregates": card_aggregates(runs, [part.description() for part in suite.parts]),
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "timing": timing,
     }
+
+
+def card_aggregates(runs: list[dict[str, Any]], parts: list[dict[str, Any]]) -> dict[str, Any]:
+    """The ``aggregates`` of a scorecard: per part of the suite (its ``split`` and ``metric``,
+    as in the card's ``suite.parts``), :func:`aggregate` of its runs. The one place they are
+    computed: :mod:`nbv_gym.benchmark.validation` recomputes a loaded card's with it."""
+    return {part["split"]: aggregate(runs, part["split"], part["metric"]) for part in parts}
 
 
 def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
@@ -246,8 +251,11 @@ def _one_line(match: re.Match[str]) -> str:
     return "[" + re.sub(r",\s+", ", ", match.group(1)) + "]"
 
 
-def load_scorecard(path: str | Path) -> dict[str, Any]:
-    """The scorecard in ``path``; :class:`ScorecardError` if it is not one."""
+def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
+    """The scorecard in ``path``, validated (:func:`~nbv_gym.benchmark.validation.validate_scorecard`:
+    schema, runs and, if ``recompute``, the aggregates recomputed from the runs);
+    :class:`ScorecardError` if it is not one or fails."""
+    from nbv_gym.benchmark.validation import validate_scorecard
     from nbv_gym.core.inputs import read_json
 
     path = Path(path)
@@ -257,25 +265,18 @@ def load_scorecard(path: str | Path) -> dict[str, Any]:
             f'{path} is not an nbv-gym scorecard (no "format": "{FORMAT}"); give the '
             "scorecard.json that `nbv-gym score` wrote."
         )
-    missing = [
-        k for k in ("protocol_version", "suite", "policy", "runs", "aggregates") if k not in card
-    ]
-    if missing:
-        raise ScorecardError(
-            f"Scorecard {path} lacks {', '.join(missing)}; score the policy again."
-        )
-    return card
+    return validate_scorecard(card, path, recompute)
 
 
 def scorecard_markdown(card: dict[str, Any]) -> str:
     """A short Markdown summary: identity, then per split its score (IQM and mean with 95 %
     intervals, optimality gap) overall and per asset type."""
-    from nbv_gym.reporting.formatting import markdown_table
+    from nbv_gym.reporting.formatting import markdown_code, markdown_table
 
     policy, suite = card["policy"], card["suite"]
     oracle = " — **oracle** (reads privileged values; ranked apart)" if policy["oracle"] else ""
     lines = [
-        f"# Scorecard: `{policy['name']}`{oracle}",
+        f"# Scorecard: {markdown_code(policy['name'])}{oracle}",
         "",
         f"Suite `{suite['name']}` (hash `{suite['hash']}`, {len(card['runs'])} runs), protocol "
         f"version {card['protocol_version']}, nbv-gym {card['nbv_gym']['version']} "

@@ -74,8 +74,7 @@ def task_episode_config(
 ) -> Any:
     """The :class:`~nbv_gym.simulator.EpisodeConfig` of the options (after :func:`task_of`)."""
     from nbv_gym.core.config import from_dict
-    from nbv_gym.core.protocol import task_episode
-    from nbv_gym.core.protocol import EpisodeConfig
+    from nbv_gym.core.protocol import EpisodeConfig, task_episode
 
     given = {"max_steps": max_steps, "speed_mps": speed_mps, "scan_time_s": scan_time_s}
     episode = from_dict(EpisodeConfig, {k: v for k, v in given.items() if v is not None})

@@ -2,7 +2,8 @@
 aggregates in the rliable recipe, as strict JSON (``scorecard.json``) and a short Markdown summary
 (``scorecard.md``).
 
-Fields (the JSON schema :data:`SCHEMA_PATH` ships beside this module and fixes them):
+Fields (the JSON schema :data:`~nbv_gym.benchmark.validation.SCHEMA_PATH` ships beside this module
+and fixes them; every loaded card is checked against it):
 
 - ``format``: ``"nbv-gym scorecard"``; ``protocol_version``: :data:`~nbv_gym.benchmark.suites.PROTOCOL_VERSION`;
 - ``suite``: name, content hash, seed and its parts (split, task, metric, worlds, noise, repeats);
@@ -49,12 +50,14 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.benchmark.suites import PROTOCOL_VERSION, Suite
-from nbv_gym.core.errors import NbvGymError
+from nbv_gym.benchmark.validation import (  # noqa: F401 (SCHEMA_PATH: re-exported)
+    SCHEMA_PATH,
+    ScorecardError,
+    validate_scorecard,
+)
 from nbv_gym.core.jsonfiles import dumps_json
 
 FORMAT = "nbv-gym scorecard"
-#: The JSON schema of a scorecard (package data).
-SCHEMA_PATH = Path(__file__).with_name("scorecard.schema.json")
 #: The optimality gap's target score: a perfect map.
 TARGET_SCORE = 1.0
 #: Figures of a run whose plain means the aggregates carry.
@@ -71,10 +74,6 @@ MEAN_FIGURES = (
 BOOTSTRAP_SEED = 0
 #: The time task's score (:data:`~nbv_gym.benchmark.suites.TASK_METRICS`).
 TIME_METRIC = "q_time_auc"
-
-
-class ScorecardError(NbvGymError):
-    """A scorecard file is unreadable or not a scorecard; the message names the file."""
 
 
 def policy_identity(name: str) -> dict[str, Any]:
@@ -255,7 +254,6 @@ def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
     """The scorecard in ``path``, validated (:func:`~nbv_gym.benchmark.validation.validate_scorecard`:
     schema, runs and, if ``recompute``, the aggregates recomputed from the runs);
     :class:`ScorecardError` if it is not one or fails."""
-    from nbv_gym.benchmark.validation import validate_scorecard
     from nbv_gym.core.inputs import read_json
 
     path = Path(path)
@@ -265,7 +263,7 @@ def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
             f'{path} is not an nbv-gym scorecard (no "format": "{FORMAT}"); give the '
             "scorecard.json that `nbv-gym score` wrote."
         )
-    return validate_scorecard(card, path, recompute)
+    return validate_scorecard(card, path, card_aggregates if recompute else None)
 
 
 def scorecard_markdown(card: dict[str, Any]) -> str:

@@ -8,8 +8,9 @@ reads (the shipped references too) and refuses, in one line naming the file and 
 2. runs that are not the suite's: a run twice, a run of no part, a part without its runs;
 3. aggregates that its runs do not give (for every scorecard given on the command line; the
    shipped references are package files, checked against their runs by the test suite): every aggregate is recomputed from the runs with the
-   scorecard module's own :func:`~nbv_gym.benchmark.scorecard.card_aggregates` (so a new
-   aggregate is checked as soon as it is computed there) and compared, field by field.
+   scorecard module's own :func:`~nbv_gym.benchmark.scorecard.card_aggregates`, which its
+   loader passes in (so a new aggregate is checked as soon as it is computed there), and
+   compared field by field.
 
 NaN and Infinity never get this far: scorecards are read as strict JSON
 (:func:`nbv_gym.core.inputs.read_json`).
@@ -19,33 +20,46 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from functools import cache
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.benchmark.scorecard import ScorecardError
+from nbv_gym.core.errors import NbvGymError
+
+#: The JSON schema of a scorecard (package data).
+SCHEMA_PATH = Path(__file__).with_name("scorecard.schema.json")
 
 #: Relative tolerance of a recomputed aggregate (the bootstrap is seeded, so the same runs give
 #: the same figures; the tolerance absorbs the last bits of another machine's summation order).
 AGGREGATE_RTOL = 1e-9
+#: ``aggregates(runs, parts)``: the aggregates a card's runs give (the scorecard module's
+#: :func:`~nbv_gym.benchmark.scorecard.card_aggregates`, passed in by its loader).
+Aggregates = Callable[[list[dict[str, Any]], list[dict[str, Any]]], dict[str, Any]]
 
 
-def validate_scorecard(card: Any, path: str | Path, recompute: bool = True) -> dict[str, Any]:
+class ScorecardError(NbvGymError):
+    """A scorecard file is unreadable, not a scorecard, or not supported by its own runs; the
+    message names the file and the field."""
+
+
+def validate_scorecard(
+    card: Any, path: str | Path, aggregates: Aggregates | None = None
+) -> dict[str, Any]:
     """``card`` after checking it against the schema, its runs against its suite's parts and
-    (if ``recompute``) its aggregates against those recomputed from its runs (about 1 s a card:
-    the bootstrap); :class:`ScorecardError` naming ``path`` and the first field that fails."""
+    (given ``aggregates``, the function that computes them) its aggregates against those its
+    runs give (about 1 s a card: the bootstrap); :class:`ScorecardError` naming ``path`` and
+    the first field that fails otherwise."""
     _check_schema(card, path)
     _check_runs(card, path)
-    if recompute:
-        _check_aggregates(card, path)
+    if aggregates is not None:
+        _check_aggregates(card, path, aggregates)
     return card
 
 
 @cache
 def _validator():
     from jsonschema import Draft202012Validator
-
-    from nbv_gym.benchmark.scorecard import SCHEMA_PATH
 
     return Draft202012Validator(json.loads(SCHEMA_PATH.read_text()))
 
@@ -102,11 +116,9 @@ def _in_part(run: dict[str, Any], part: dict[str, Any]) -> bool:
     )
 
 
-def _check_aggregates(card: dict[str, Any], path: str | Path) -> None:
+def _check_aggregates(card: dict[str, Any], path: str | Path, aggregates: Aggregates) -> None:
     """Every aggregate equals the one its runs give (within :data:`AGGREGATE_RTOL`)."""
-    from nbv_gym.benchmark.scorecard import card_aggregates
-
-    expected = card_aggregates(card["runs"], card["suite"]["parts"])
+    expected = aggregates(card["runs"], card["suite"]["parts"])
     mismatch = _first_difference(card["aggregates"], expected, ("aggregates",))
     if mismatch is not None:
         where, held, computed = mismatch

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
+import warnings
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -15,6 +17,7 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.config import to_dict
+from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.names import check_name
 from nbv_gym.core.progress import say, say_if_compiling
 from nbv_gym.core.protocol import RESOLUTION_M
@@ -155,27 +158,43 @@ def load_world(
     if cache and not rebuild and path.exists():
         try:
             return _read(path, spec)
-        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
-            path.unlink(missing_ok=True)  # a corrupt or partial file: rebuild it
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile, NbvGymError) as error:
+            say(f"the cached world {path} is unusable ({_one_line(error)}); building it again")
     say_if_compiling()
     say(f"building world {spec.name} (mesh + ground truth), once per spec…")
     start = time.perf_counter()
     world = build_world(spec)
-    if cache:
-        _write(path, world)
+    cached = cache and _cached(path, world)
     say(
         f"world {spec.name} built in {time.perf_counter() - start:.0f} s"
-        + (f", cached in {path}" if cache else "")
+        + (f", cached in {path}" if cached else "")
     )
     return world
 
 
-def _write(path: Path, world: World) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
+def _cached(path: Path, world: World) -> bool:
+    """Write ``world`` to the cache file ``path``; False, saying why and what to do, if the
+    cache folder cannot take it (read-only, full): the world is then built again next time."""
+    try:
+        _write(path, world)
+        return True
+    except OSError as error:
+        warnings.warn(
+            f"cannot cache the world in {path.parent} ({error.strerror or error}); it will be "
+            f"built again next time. Set {CACHE_ENV} to a writable folder to keep it.",
+            stacklevel=3,
+        )
+        return False
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split()) or type(error).__name__
+
+
+def _arrays(world: World) -> dict[str, np.ndarray]:
+    """The arrays a cache file holds (besides its spec and digest)."""
     placed = world.layout
-    temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
-    np.savez(
-        temporary,
+    return dict(
         vertices=world.vertices,
         faces=world.faces,
         asset_faces=world.asset_faces,
@@ -187,20 +206,49 @@ def _write(path: Path, world: World) -> None:
         scale_z=placed.scale_z,
         kind=placed.kind,
         variant=placed.variant,
-        spec=json.dumps(to_dict(world.spec)),
     )
-    os.replace(temporary, path)
+
+
+def content_digest(arrays: dict[str, np.ndarray], spec: WorldSpec) -> str:
+    """SHA-256 of a cache file's content: the spec's digest and generator version, then each
+    array's name, dtype, shape and bytes (sorted by name)."""
+    digest = hashlib.sha256(f"{spec.digest()}-v{GENERATOR_VERSION}".encode())
+    for name in sorted(arrays):
+        array = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}:{array.dtype.str}:{array.shape}".encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()
+
+
+def _write(path: Path, world: World) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = _arrays(world)
+    temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
+    try:
+        np.savez(
+            temporary,
+            **arrays,
+            spec=json.dumps(to_dict(world.spec)),
+            digest=content_digest(arrays, world.spec),
+        )
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
 
 
 def _read(path: Path, spec: WorldSpec) -> World:
-    with np.load(path) as data:
-        placed = Layout(
-            data["xy"],
-            data["yaw"],
-            data["scale_xy"],
-            data["scale_z"],
-            data["kind"],
-            data["variant"],
-        )
-        truth = GroundTruth(data["ground_truth"], float(data["res"]))
-        return World(spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth)
+    """The world in the cache file ``path``, after checking that its content is the one built
+    from ``spec`` (its digest, recomputed); ``ValueError`` naming what differs otherwise."""
+    from nbv_gym.core.arrayfiles import read_npz
+
+    data = read_npz(path)
+    digest, stored_spec = str(data.pop("digest", "")), str(data.pop("spec", ""))
+    if stored_spec != json.dumps(to_dict(spec)):
+        raise ValueError("it holds another spec")
+    if digest != content_digest(data, spec):
+        raise ValueError("its content does not match its digest: edited, truncated or older")
+    placed = Layout(
+        data["xy"], data["yaw"], data["scale_xy"], data["scale_z"], data["kind"], data["variant"]
+    )
+    truth = GroundTruth(data["ground_truth"], float(data["res"]))
+    return World(spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth)

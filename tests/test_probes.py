@@ -564,7 +564,8 @@ def test_a_sweep_resumed_without_a_policy_keeps_only_what_its_config_lists(
         "closest-frontier",
         "my_policy:Nearest",
     }
-    (here / "s.toml").write_text(SWEEP.format(policies='"closest-frontier"'))
+    # the same sweep (its name: the folder's) with a policy dropped; another name is refused
+    (here / "s.toml").write_text('name = "sweep"\n' + SWEEP.format(policies='"closest-frontier"'))
     result = cli("sweep", "s.toml", "--out", sweep, "--no-report", "--no-progress")
     assert result.code == 0, result.err
     assert "1 run(s)" in result.err and "sweep.toml no longer lists" in result.err
@@ -705,3 +706,58 @@ def test_the_readme_policy_in_the_current_folder_sweeps(finished_sweep):
 def test_a_command_group_without_a_command_prints_its_help(cli, group):
     result = cli(*group)
     assert "Usage: nbv-gym" in result.out + result.err and "Error" not in result.err
+
+
+# -- class 7 (third round): folders that mix or mislead ---------------------------------------------
+
+
+@pytest.mark.parametrize("folder", ["finished_run", "finished_sweep"])
+def test_score_out_on_another_commands_folder_is_refused(cli, here, request, folder):
+    target = copy_of(request.getfixturevalue(folder), here)
+    before = hashes(target)
+    line = one_line(cli("score", "closest-frontier", "--suite", "quick", "--out", target))
+    assert f"--out {target} is the folder of `nbv-gym " in line and "`nbv-gym score`" in line
+    assert hashes(target) == before
+
+
+@pytest.mark.parametrize("folder", ["finished_run", "finished_sweep"])
+def test_leaderboard_out_on_another_commands_folder_is_refused(cli, here, request, folder):
+    from nbv_gym.benchmark.references import reference_path
+
+    target = copy_of(request.getfixturevalue(folder), here)
+    before = hashes(target)
+    line = one_line(cli("leaderboard", reference_path("closest-frontier"), "--out", target))
+    assert "is the folder of `nbv-gym " in line and hashes(target) == before
+
+
+def test_run_out_on_a_score_folder_is_refused(cli, here):
+    (here / "scores").mkdir()
+    (here / "scores" / "scorecard.json").write_text("{}")
+    line = one_line(cli("run", "--world", "tiny.toml", "--max-steps", "2", "--no-animation",
+                        "--out", here / "scores"))  # fmt: skip
+    assert "is the folder of `nbv-gym score`" in line
+
+
+def test_sweep_into_another_sweeps_folder_is_refused_and_it_is_unchanged(cli, here, finished_sweep):
+    target = copy_of(finished_sweep, here)
+    before = hashes(target)
+    (here / "other.toml").write_text(
+        'name = "other"\n' + SWEEP.format(policies='"random-frontier"')
+    )
+    line = one_line(cli("sweep", "other.toml", "--out", target, "--workers", "1", "--no-report",
+                        "--no-progress"))  # fmt: skip
+    assert "holds the results of sweep 'sweep'; this is sweep 'other'" in line
+    assert hashes(target) == before
+
+
+def test_report_on_a_sweep_missing_runs_says_so_and_reproduces_nothing(cli, here, finished_sweep):
+    target = copy_of(finished_sweep, here)
+    for run in sorted((target / "runs").glob("*closest-frontier*"))[:2]:
+        run.unlink()  # one run: its record and its cuboid table
+    result = cli("report", target, "--out", here / "report")
+    assert result.code == 0, result.err
+    text = (here / "report" / "report.md").read_text()
+    assert "Incomplete sweep: 1 of its 2 runs are missing" in text
+    assert "1 finished runs, 0 failed, 1 missing of the 2 its sweep.toml lists" in text
+    assert "reproduced" not in text.split("## Reproduction verdict")[-1].split("\n\n", 2)[-1]
+    assert "lacks 1 of its 2 runs" in result.err

@@ -201,12 +201,12 @@ def build_leaderboard(paths: list[Path], references: bool, out: Path) -> tuple[P
     """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
     (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
     ``out``; the paths of the Markdown and HTML files."""
-    from nbv_gym.core.outputs import writable_folder
+    from nbv_gym.core.outputs import claim_folder
     from nbv_gym.reporting.html import write_html
 
     entries = gather(paths, references)
     pending = _pending_references() if references else ""
-    out = writable_folder(out)
+    out = claim_folder(out, "leaderboard")
     save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"

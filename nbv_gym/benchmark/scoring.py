@@ -47,12 +47,12 @@ def score_policy(
     address or ``"local"`` (as for sweeps; the runs and so the scorecard are the same as a
     local scoring's); ``python_path``: folders where a ``module:Class`` policy is found;
     ``say``: where phase messages go (default: stderr)."""
-    from nbv_gym.core.outputs import writable_folder
+    from nbv_gym.core.outputs import claim_folder
     from nbv_gym.sweep.runner import default_workers, run_sweep
 
     say = say or _stderr
     start = time.perf_counter()
-    out = writable_folder(Path(out))
+    out = claim_folder(Path(out), "score")  # not a run's, sweep's or training's folder
     identity = policy_identity(policy)
     _check_same_policy(out, policy)
     sources = write_world_specs(suite, out / "worlds")

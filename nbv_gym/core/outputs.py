@@ -86,7 +86,8 @@ def _why(error: OSError) -> str:
 #: The file that records which command wrote a folder (``run``, ``sweep``, …).
 OWNER_FILE = ".nbv-gym-owner"
 #: How folders written before :data:`OWNER_FILE` existed are recognised: (command, its file).
-_OWNER_SIGNS = (("sweep", "sweep.toml"), ("train", "system_info.txt"), ("run", "summary.json"))
+_OWNER_SIGNS = (("sweep", "sweep.toml"), ("train", "system_info.txt"), ("run", "summary.json"),
+                ("score", "scorecard.json"))  # fmt: skip
 
 
 def folder_owner(path: str | Path) -> str | None:

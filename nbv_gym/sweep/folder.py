@@ -181,6 +181,12 @@ class ResultStore:
             previous = from_dict(SweepConfig, read_toml(path, "sweep.toml"))
         except NbvGymError as error:
             raise SweepError(f"{path} is not a valid sweep config ({error}); remove it.") from None
+        if previous.name != config.name:
+            raise SweepError(
+                f"{self.root} holds the results of sweep {previous.name!r}; this is sweep "
+                f"{config.name!r}, whose runs would be mixed with them. Write to another --out "
+                "folder (or give the config the same name to extend that sweep)."
+            )
         old, new = previous.results_fingerprint(), config.results_fingerprint()
         changed = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))
         if changed:

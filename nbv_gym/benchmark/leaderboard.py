@@ -239,7 +239,7 @@ def leaderboard_markdown(entries: list[Entry], pending: str = "") -> str:
             "## Oracles (ranked apart)",
             "",
             "These policies declare that they read privileged values (the ground truth, the true "
-            "pose, the world's name or realised gains), which no robot has: they bound what is "
+            "pose or the world's name), which no robot has: they bound what is "
             "reachable and are not ranked with the others.",
             "",
             _tables(oracles, best, rank=False),

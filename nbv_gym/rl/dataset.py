@@ -134,11 +134,11 @@ def _episode(env, agent, seed: int, index: int):
 
     from nbv_gym.episode import policy_info, start_episode
 
-    observation, info = start_episode(env, agent, seed)
+    observation, info, oracle = start_episode(env, agent, seed)
     observations, infos, steps = [observation], [_kept(info)], []
     done = False
     while not done:
-        action = int(agent.act(observation, policy_info(agent, info)))
+        action = int(agent.act(observation, policy_info(agent, info, oracle)))
         observation, reward, terminated, truncated, info = env.step(action)
         observations.append(observation)
         infos.append(_kept(info))

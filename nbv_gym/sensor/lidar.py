@@ -208,7 +208,7 @@ class Lidar:
         """Scan from the robot's ground pose ``robot``; all randomness is drawn from ``rng``."""
         self._check_pose(robot)
         true_pose = self.sensor_pose(robot)
-        world_directions = self.directions @ true_pose.rotation().T
+        world_directions = true_pose.rotate(self.directions)  # no BLAS: same bits on every CPU
         distance = self.scene.cast(true_pose.position, world_directions)
         ray_index = np.flatnonzero(np.isfinite(distance))
         ranges = distance[ray_index]

@@ -761,3 +761,71 @@ def test_report_on_a_sweep_missing_runs_says_so_and_reproduces_nothing(cli, here
     assert "1 finished runs, 0 failed, 1 missing of the 2 its sweep.toml lists" in text
     assert "reproduced" not in text.split("## Reproduction verdict")[-1].split("\n\n", 2)[-1]
     assert "lacks 1 of its 2 runs" in result.err
+
+
+# -- class 9 (third round): tracebacks and unclear messages ----------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "--policy", "closest-frontier@x"], "closest-frontier has no variant after '@'"),
+        (["run", "--policy", "random-free@2"], "the policies that do: ig-entropy, ig-unknown, nbv"),
+        (["run", "--policy", "ig-unknown@1e308"], "lam: expected a number from 0 to 100"),
+        (["run", "--policy", "ig-unknown@-1"], "lam: expected a number from 0 to 100"),
+        (
+            ["record", "--policy", "closest-frontier", "--dataset-id", "nbv/tiny"],
+            "'nbv/tiny' has no version; Minari ids end in",
+        ),
+        (["export", "MAP", "--format", "bt", "--min-p", "0.7"], "--min-p applies to ply and pcd"),
+    ],
+)
+def test_third_round_messages_say_what_is_wrong(cli, here, finished_run, args, message):
+    args = [str(finished_run / "map.npz") if a == "MAP" else a for a in args]
+    if args[0] in ("run", "record"):
+        args += ["--world", "tiny.toml", "--max-steps", "1", "--out", here / "out"]
+    if args[0] == "run":
+        args.append("--no-animation")
+    line = one_line(cli(*args))
+    assert message in line, line
+    assert not (here / "out").exists() or not any((here / "out").iterdir())
+
+
+@pytest.mark.parametrize("options", ["world", ["world"], 3])
+def test_reset_options_that_are_not_a_dict_are_named_as_such(here, options):
+    import gymnasium
+
+    from nbv_gym.core.errors import ConfigError
+
+    env = gymnasium.make("nbv_gym/Explore-v0", world="tiny.toml", max_steps=1)
+    with pytest.raises(ConfigError, match=f"expected a dict or None, got {type(options).__name__}"):
+        env.reset(options=options)
+    env.close()
+
+
+def test_sigterm_during_run_force_leaves_the_earlier_run_and_no_partial_folder(here, finished_run):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    target = copy_of(finished_run, here)
+    before = hashes(target)
+    (here / "slow.py").write_text(
+        "import time\nfrom my_policy import Nearest\n\n\nclass Slow(Nearest):\n"
+        "    def act(self, observation, info):\n        time.sleep(60)\n"
+    )
+    process = subprocess.Popen(
+        [sys.executable, "-m", "nbv_gym", "run", "--world", "tiny.toml", "--policy", "slow:Slow",
+         "--max-steps", "3", "--no-animation", "--out", str(target), "--force"],
+        cwd=here, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 300
+    while not list(here.glob(f".{target.name}.partial-*")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    time.sleep(1.0)  # inside the episode
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130 and "Traceback" not in err, err
+    assert hashes(target) == before
+    assert not list(here.glob(f".{target.name}.partial-*"))

@@ -59,6 +59,11 @@ def record_dataset(
     if episodes < 1:
         raise RecordError(f"--episodes must be ≥ 1, got {episodes}")
     dataset_id = check_path_of_names(dataset_id or default_id(world, policy), "--dataset-id", 3)
+    if not re.search(r"-v\d+$", dataset_id):
+        raise RecordError(
+            f"--dataset-id {dataset_id!r} has no version; Minari ids end in -v<number>, e.g. "
+            f"{dataset_id}-v0."
+        )
     writable_folder(out)
     minari = _minari()
     import gymnasium

@@ -1,6 +1,6 @@
 """The words of a reproduction verdict, shared by the sweep's and the studies' reports: a claim of
 a paper is reproduced, partly reproduced, not reproduced, inconclusive (the sample cannot reach
-significance), without data, or not reproducible here."""
+significance), incomplete (the sweep lacks runs), without data, or not reproducible here."""
 
 from __future__ import annotations
 
@@ -12,8 +12,10 @@ NOT_REPRODUCED = "not reproduced"
 INCONCLUSIVE = "inconclusive"
 NO_DATA = "no data"
 NOT_REPRODUCIBLE = "not reproducible here"
+#: A claim of a sweep that lacks runs: no verdict until every run is there.
+INCOMPLETE = "incomplete"
 #: Every verdict word, in the order summaries list them.
-VERDICTS = (REPRODUCED, PARTLY, NOT_REPRODUCED, INCONCLUSIVE, NO_DATA, NOT_REPRODUCIBLE)
+VERDICTS = (REPRODUCED, PARTLY, NOT_REPRODUCED, INCONCLUSIVE, INCOMPLETE, NO_DATA, NOT_REPRODUCIBLE)
 
 
 def inconclusive(n: int) -> str:

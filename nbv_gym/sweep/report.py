@@ -336,6 +336,7 @@ def _indicator_section(ok, data: Results, out: Path) -> str:
 
 
 def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> str:
+    from nbv_gym.reporting.verdicts import INCOMPLETE, NO_DATA
     from nbv_gym.sweep.verdict import verdict_section, verdict_table
 
     ok = ok[~ok["policy"].map(is_oracle_label)]  # the paper's claims concern its policies
@@ -348,7 +349,7 @@ def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> 
     table = verdict_table(ok, data.steps, cuboids, shares, rng)
     if data.missing:  # a verdict on part of the runs is no verdict
         table["verdict"] = table["verdict"].where(
-            table["verdict"].str.startswith("no data"), f"incomplete ({data.missing} runs missing)"
+            table["verdict"].str.startswith(NO_DATA), f"{INCOMPLETE} ({data.missing} runs missing)"
         )
     return verdict_section(table, out)
 

@@ -201,9 +201,10 @@ def build_leaderboard(paths: list[Path], references: bool, out: Path) -> tuple[P
     """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
     (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
     ``out``; the paths of the Markdown and HTML files."""
-    from nbv_gym.core.outputs import claim_folder
+    from nbv_gym.core.outputs import check_owner, claim_folder
     from nbv_gym.reporting.html import write_html
 
+    check_owner(out, "leaderboard")  # another command's folder fails before any work
     entries = gather(paths, references)
     pending = _pending_references() if references else ""
     out = claim_folder(out, "leaderboard")

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -191,7 +192,7 @@ def _one_line(error: BaseException) -> str:
     return " ".join(str(error).split()) or type(error).__name__
 
 
-def _arrays(world: World) -> dict[str, np.ndarray]:
+def _arrays(world: World) -> dict[str, Any]:
     """The arrays a cache file holds (besides its spec and digest)."""
     placed = world.layout
     return dict(
@@ -209,7 +210,7 @@ def _arrays(world: World) -> dict[str, np.ndarray]:
     )
 
 
-def content_digest(arrays: dict[str, np.ndarray], spec: WorldSpec) -> str:
+def content_digest(arrays: dict[str, Any], spec: WorldSpec) -> str:
     """SHA-256 of a cache file's content: the spec's digest and generator version, then each
     array's name, dtype, shape and bytes (sorted by name)."""
     digest = hashlib.sha256(f"{spec.digest()}-v{GENERATOR_VERSION}".encode())

@@ -37,6 +37,9 @@ class EpisodeResult:
     steps: list[dict[str, float]] = field(default_factory=list)
     end_reason: str = ""
     wall_time_s: float = 0.0
+    #: Whether the policy ran as an oracle (saw the full ``info``): its ``privileged`` flag as
+    #: read once at the episode's start, which is what results record.
+    oracle: bool = False
 
     @property
     def final(self) -> dict[str, float]:
@@ -65,8 +68,8 @@ def run_episode(
     a normal policy that reads a privileged key raises
     :class:`~nbv_gym.env.views.PrivilegedInfoError`."""
     start = time.perf_counter()
-    observation, info = start_episode(env, policy, seed)
-    result = EpisodeResult()
+    observation, info, oracle = start_episode(env, policy, seed)
+    result = EpisodeResult(oracle=oracle)
     clock = cast(ExploreEnv, env.unwrapped).sim  # the robot's clock, in every task
     row = _row(0, -1, info, 0.0, start, policy, clock.elapsed_s)
     done = False
@@ -76,7 +79,7 @@ def run_episode(
             on_step(row, env)
         if done:
             break
-        goal = policy.act(observation, policy_info(policy, info))
+        goal = policy.act(observation, policy_info(policy, info, oracle))
         try:
             observation, reward, terminated, truncated, info = env.step(goal)
         except InvalidActionError as error:
@@ -89,23 +92,25 @@ def run_episode(
     return result
 
 
-def start_episode(env, policy: Policy, seed: int | None) -> tuple[dict, dict]:
+def start_episode(env, policy: Policy, seed: int | None) -> tuple[dict, dict, bool]:
     """Reset ``env`` (an ``ExploreEnv``, wrapped or not) with ``seed`` and ``policy`` with the
-    same seed; an oracle with an ``attach`` method then gets the unwrapped environment
-    (``policy.attach(env.unwrapped)``). The reset's observation and full info."""
+    same seed, then read once whether the policy is an oracle this episode
+    (:func:`~nbv_gym.policies.is_oracle`; a flag flipped later changes nothing until the next
+    episode); an oracle with an ``attach`` method then gets the unwrapped environment
+    (``policy.attach(env.unwrapped)``). The reset's observation, full info and that reading."""
     observation, info = env.reset(seed=seed)
     policy.reset(seed)
+    oracle = is_oracle(policy)
     attach = getattr(policy, "attach", None)
-    if is_oracle(policy) and callable(attach):
+    if oracle and callable(attach):
         attach(env.unwrapped)
-    return observation, info
+    return observation, info, oracle
 
 
-def policy_info(policy: Policy, info: dict[str, Any]) -> Mapping[str, Any]:
-    """What ``policy`` may read of ``info``: all of it for an oracle
-    (:func:`~nbv_gym.policies.is_oracle`), else its agent view
-    (:func:`~nbv_gym.env.views.agent_view`)."""
-    return info if is_oracle(policy) else agent_view(info, policy_name(policy))
+def policy_info(policy: Policy, info: dict[str, Any], oracle: bool) -> Mapping[str, Any]:
+    """What ``policy`` may read of ``info``: all of it if it is an ``oracle`` this episode (as
+    :func:`start_episode` read it), else its agent view (:func:`~nbv_gym.env.views.agent_view`)."""
+    return info if oracle else agent_view(info, policy_name(policy))
 
 
 def _row(

@@ -564,7 +564,8 @@ def test_a_sweep_resumed_without_a_policy_keeps_only_what_its_config_lists(
         "closest-frontier",
         "my_policy:Nearest",
     }
-    (here / "s.toml").write_text(SWEEP.format(policies='"closest-frontier"'))
+    # the same sweep (its name: the folder's) with a policy dropped; another name is refused
+    (here / "s.toml").write_text('name = "sweep"\n' + SWEEP.format(policies='"closest-frontier"'))
     result = cli("sweep", "s.toml", "--out", sweep, "--no-report", "--no-progress")
     assert result.code == 0, result.err
     assert "1 run(s)" in result.err and "sweep.toml no longer lists" in result.err
@@ -705,3 +706,126 @@ def test_the_readme_policy_in_the_current_folder_sweeps(finished_sweep):
 def test_a_command_group_without_a_command_prints_its_help(cli, group):
     result = cli(*group)
     assert "Usage: nbv-gym" in result.out + result.err and "Error" not in result.err
+
+
+# -- class 7 (third round): folders that mix or mislead ---------------------------------------------
+
+
+@pytest.mark.parametrize("folder", ["finished_run", "finished_sweep"])
+def test_score_out_on_another_commands_folder_is_refused(cli, here, request, folder):
+    target = copy_of(request.getfixturevalue(folder), here)
+    before = hashes(target)
+    line = one_line(cli("score", "closest-frontier", "--suite", "quick", "--out", target))
+    assert f"--out {target} is the folder of `nbv-gym " in line and "`nbv-gym score`" in line
+    assert hashes(target) == before
+
+
+@pytest.mark.parametrize("folder", ["finished_run", "finished_sweep"])
+def test_leaderboard_out_on_another_commands_folder_is_refused(cli, here, request, folder):
+    from nbv_gym.benchmark.references import reference_path
+
+    target = copy_of(request.getfixturevalue(folder), here)
+    before = hashes(target)
+    line = one_line(cli("leaderboard", reference_path("closest-frontier"), "--out", target))
+    assert "is the folder of `nbv-gym " in line and hashes(target) == before
+
+
+def test_run_out_on_a_score_folder_is_refused(cli, here):
+    (here / "scores").mkdir()
+    (here / "scores" / "scorecard.json").write_text("{}")
+    line = one_line(cli("run", "--world", "tiny.toml", "--max-steps", "2", "--no-animation",
+                        "--out", here / "scores"))  # fmt: skip
+    assert "is the folder of `nbv-gym score`" in line
+
+
+def test_sweep_into_another_sweeps_folder_is_refused_and_it_is_unchanged(cli, here, finished_sweep):
+    target = copy_of(finished_sweep, here)
+    before = hashes(target)
+    (here / "other.toml").write_text(
+        'name = "other"\n' + SWEEP.format(policies='"random-frontier"')
+    )
+    line = one_line(cli("sweep", "other.toml", "--out", target, "--workers", "1", "--no-report",
+                        "--no-progress"))  # fmt: skip
+    assert "holds the results of sweep 'sweep'; this is sweep 'other'" in line
+    assert hashes(target) == before
+
+
+def test_report_on_a_sweep_missing_runs_says_so_and_reproduces_nothing(cli, here, finished_sweep):
+    target = copy_of(finished_sweep, here)
+    for run in sorted((target / "runs").glob("*closest-frontier*"))[:2]:
+        run.unlink()  # one run: its record and its cuboid table
+    result = cli("report", target, "--out", here / "report")
+    assert result.code == 0, result.err
+    text = (here / "report" / "report.md").read_text()
+    assert "Incomplete sweep: 1 of its 2 runs are missing" in text
+    assert "1 finished runs, 0 failed, 1 missing of the 2 its sweep.toml lists" in text
+    assert "reproduced" not in text.split("## Reproduction verdict")[-1].split("\n\n", 2)[-1]
+    assert "lacks 1 of its 2 runs" in result.err
+
+
+# -- class 9 (third round): tracebacks and unclear messages ----------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "--policy", "closest-frontier@x"], "closest-frontier has no variant after '@'"),
+        (["run", "--policy", "random-free@2"], "the policies that do: ig-entropy, ig-unknown, nbv"),
+        (["run", "--policy", "ig-unknown@1e308"], "lam: expected a number from 0 to 100"),
+        (["run", "--policy", "ig-unknown@-1"], "lam: expected a number from 0 to 100"),
+        (
+            ["record", "--policy", "closest-frontier", "--dataset-id", "nbv/tiny"],
+            "'nbv/tiny' has no version; Minari ids end in",
+        ),
+        (["export", "MAP", "--format", "bt", "--min-p", "0.7"], "--min-p applies to ply and pcd"),
+    ],
+)
+def test_third_round_messages_say_what_is_wrong(cli, here, finished_run, args, message):
+    args = [str(finished_run / "map.npz") if a == "MAP" else a for a in args]
+    if args[0] in ("run", "record"):
+        args += ["--world", "tiny.toml", "--max-steps", "1", "--out", here / "out"]
+    if args[0] == "run":
+        args.append("--no-animation")
+    line = one_line(cli(*args))
+    assert message in line, line
+    assert not (here / "out").exists() or not any((here / "out").iterdir())
+
+
+@pytest.mark.parametrize("options", ["world", ["world"], 3])
+def test_reset_options_that_are_not_a_dict_are_named_as_such(here, options):
+    import gymnasium
+
+    from nbv_gym.core.errors import ConfigError
+
+    env = gymnasium.make("nbv_gym/Explore-v0", world="tiny.toml", max_steps=1)
+    with pytest.raises(ConfigError, match=f"expected a dict or None, got {type(options).__name__}"):
+        env.reset(options=options)
+    env.close()
+
+
+def test_sigterm_during_run_force_leaves_the_earlier_run_and_no_partial_folder(here, finished_run):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    target = copy_of(finished_run, here)
+    before = hashes(target)
+    (here / "slow.py").write_text(
+        "import time\nfrom my_policy import Nearest\n\n\nclass Slow(Nearest):\n"
+        "    def act(self, observation, info):\n        time.sleep(60)\n"
+    )
+    process = subprocess.Popen(
+        [sys.executable, "-m", "nbv_gym", "run", "--world", "tiny.toml", "--policy", "slow:Slow",
+         "--max-steps", "3", "--no-animation", "--out", str(target), "--force"],
+        cwd=here, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 300
+    while not list(here.glob(f".{target.name}.partial-*")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    time.sleep(1.0)  # inside the episode
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130 and "Traceback" not in err, err
+    assert hashes(target) == before
+    assert not list(here.glob(f".{target.name}.partial-*"))

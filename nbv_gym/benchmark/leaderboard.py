@@ -33,6 +33,7 @@ import numpy as np
 from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
 from nbv_gym.benchmark.suites import HEADLINE_SPLIT
 from nbv_gym.core.errors import NbvGymError
+from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
 
 #: The split whose score ranks the table.
 RANK_SPLIT = HEADLINE_SPLIT
@@ -112,10 +113,7 @@ def gather(paths: list[str | Path], references: bool) -> list[Entry]:
         pending_note,
     )
 
-    given: list[tuple[Path, dict[str, Any]]] = []
-    for path in map(Path, paths):
-        path = path / "scorecard.json" if path.is_dir() else path
-        given.append((path, load_scorecard(path)))
+    given = [(path, _given_card(path)) for path in _scorecard_paths(paths)]
     entries: list[Entry] = []
     pending = ""
     if references:
@@ -137,6 +135,33 @@ def gather(paths: list[str | Path], references: bool) -> list[Entry]:
         )
     check_comparable(entries)
     return entries
+
+
+def _scorecard_paths(paths: list[str | Path]) -> list[Path]:
+    """The scorecard files of ``paths`` (a folder stands for its ``scorecard.json``), each once:
+    :class:`LeaderboardError` for a file given twice."""
+    seen: dict[Path, Path] = {}
+    for path in map(Path, paths):
+        path = path / "scorecard.json" if path.is_dir() else path
+        if path.resolve() in seen:
+            raise LeaderboardError(
+                f"{path} is given twice (also as {seen[path.resolve()]}); each scorecard "
+                "counts once."
+            )
+        seen[path.resolve()] = path
+    return list(seen.values())
+
+
+def _given_card(path: Path) -> dict[str, Any]:
+    """The scorecard at ``path`` (validated on load); :class:`LeaderboardError` if it lacks the
+    split that ranks the leaderboard."""
+    card = load_scorecard(path)
+    if RANK_SPLIT not in card["aggregates"]:
+        raise LeaderboardError(
+            f"{path} has no {RANK_SPLIT} split, which ranks the leaderboard; score the "
+            "policy on a suite with one (`nbv-gym score POLICY --suite standard`)."
+        )
+    return card
 
 
 def _no_references(suite: str) -> str:
@@ -223,16 +248,17 @@ def build_leaderboard(paths: list[str | Path], references: bool, out: str | Path
     """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
     (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
     ``out``."""
-    from nbv_gym.core.outputs import writable_folder
+    from nbv_gym.core.outputs import check_owner, claim_folder
     from nbv_gym.core.progress import say
     from nbv_gym.reporting.html import write_html
 
+    check_owner(out, "leaderboard")  # another command's folder fails before any work
     entries = gather(paths, references)
     pending = _pending_references(entries) if references else ""
     say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "
         "bootstrap interval per entry…")  # fmt: skip
     improvements = improvements_over_baseline(entries)
-    out = writable_folder(Path(out))
+    out = claim_folder(Path(out), "leaderboard")
     say("drawing Q against the robot's time and the performance profiles…")
     save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
@@ -296,8 +322,8 @@ def leaderboard_markdown(
     lines = [
         "# Leaderboard",
         "",
-        f"Suite `{suite['name']}` (hash `{suite['hash']}`), protocol version {version}: "
-        f"{suite['description']}.",
+        f"Suite {markdown_code(suite['name'])} (hash {markdown_code(suite['hash'])}), protocol "
+        f"version {version}: {markdown_text(suite['description'])}.",
         "",
         *([f"**{pending}**", ""] if pending else []),
         _legend(best),
@@ -311,7 +337,7 @@ def leaderboard_markdown(
             "## Oracles (ranked apart)",
             "",
             "These policies declare that they read privileged values (the ground truth, the true "
-            "pose, the world's name or realised gains), which no robot has: they bound what is "
+            "pose or the world's name), which no robot has: they bound what is "
             "reachable and are not ranked with the others.",
             "",
             _tables(oracles, best, improvements, rank=False),
@@ -362,7 +388,12 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
     from nbv_gym.reporting.formatting import markdown_table
 
     ranks = [str(i + 1) if rank else "oracle" for i in range(len(entries))]
-    scores = ["rank", "policy", *SPLIT_COLUMNS.values(), f"P(better than {best.label})"]
+    scores = [
+        "rank",
+        "policy",
+        *SPLIT_COLUMNS.values(),
+        f"P(better than {markdown_text(best.label)})",
+    ]
     effort = ["rank", "policy", "Q at the budget", *(f"Q at {d:g} m" for d in MATCHED_PATHS_M),
               "path (m)", "time (s)", "Pareto (Q, path)", "decision (ms/step)"]  # fmt: skip
     dominated = pareto_dominated(entries)
@@ -415,7 +446,7 @@ def _legend(best: Entry) -> str:
         "teleports), the paper's protocol Q_paper at 70 % discovered; neither charges travel. "
         "[brackets]: 95 % intervals, stratified "
         "bootstrap (runs resampled within each world × noise level). "
-        f"P(better than {best.label}): the probability that a run of the policy scores higher than a run of "
+        f"P(better than {markdown_text(best.label)}): the probability that a run of the policy scores higher than a run of "
         f"{whom} on the same test world and noise level (ties ½); 0.5 = no difference. "
         "Decision time: the policy's `act`, mean per step. **Bold**: scorecards given on the "
         "command line; the others are the shipped references."
@@ -423,7 +454,8 @@ def _legend(best: Entry) -> str:
 
 
 def _name(entry: Entry) -> str:
-    return f"`{entry.label}`" if entry.reference else f"**`{entry.label}`**"
+    code = markdown_code(entry.label)
+    return code if entry.reference else f"**{code}**"
 
 
 def _score_row(rank: str, entry: Entry, poi: Any) -> list[Any]:
@@ -457,7 +489,9 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
         ),
         _fmt(means.get("path_length_m"), ".0f"),
         _fmt(effort.get("elapsed_s"), ".0f"),
-        f"dominated by `{dominated[entry.label]}`" if entry.label in dominated else "front",
+        f"dominated by {markdown_code(dominated[entry.label])}"
+        if entry.label in dominated
+        else "front",
         _fmt(None if decision is None else 1000 * decision, ".2f"),
     ]
 
@@ -483,7 +517,9 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
         if not curve:
             continue
         colour, style = colours[entry.label], "--" if entry.oracle else "-"
-        ax.plot(TIME_GRID_S, curve["mean"], style, color=colour, label=entry.label, linewidth=1.4)
+        ax.plot(
+            TIME_GRID_S, curve["mean"], style, color=colour, label=printable(entry.label), lw=1.4
+        )
         ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
     ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
     ax.set_ylabel(f"Q ({RANK_SPLIT} split, mean and interquartile band)")
@@ -518,7 +554,7 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
             fraction, low, high = performance_profile(values, tasks, tau, rng)
             style = "--" if entry.oracle else "-"
             colour = colours[entry.label]
-            ax.plot(tau, fraction, style, color=colour, label=entry.label, linewidth=1.4)
+            ax.plot(tau, fraction, style, color=colour, label=printable(entry.label), lw=1.4)
             ax.fill_between(tau, low, high, color=colour, alpha=0.15, linewidth=0)
         ax.set_xlabel(f"τ ({label})")
         ax.set_ylim(0, 1.02)

@@ -2,7 +2,8 @@
 aggregates in the rliable recipe, as strict JSON (``scorecard.json``) and a short Markdown summary
 (``scorecard.md``).
 
-Fields (the JSON schema :data:`SCHEMA_PATH` ships beside this module and fixes them):
+Fields (the JSON schema :data:`~nbv_gym.benchmark.validation.SCHEMA_PATH` ships beside this module
+and fixes them; every loaded card is checked against it):
 
 - ``format``: ``"nbv-gym scorecard"``; ``protocol_version``: :data:`~nbv_gym.benchmark.suites.PROTOCOL_VERSION`;
 - ``suite``: name, content hash, seed and its parts (split, task, metric, worlds, noise, repeats);
@@ -39,7 +40,6 @@ timed; any statistic over no value (a summary with ``n`` = 0).
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import re
 import time
@@ -50,12 +50,14 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.benchmark.suites import PROTOCOL_VERSION, Suite
-from nbv_gym.core.errors import NbvGymError
+from nbv_gym.benchmark.validation import (  # noqa: F401 (SCHEMA_PATH: re-exported)
+    SCHEMA_PATH,
+    ScorecardError,
+    validate_scorecard,
+)
 from nbv_gym.core.jsonfiles import dumps_json
 
 FORMAT = "nbv-gym scorecard"
-#: The JSON schema of a scorecard (package data).
-SCHEMA_PATH = Path(__file__).with_name("scorecard.schema.json")
 #: The optimality gap's target score: a perfect map.
 TARGET_SCORE = 1.0
 #: Figures of a run whose plain means the aggregates carry.
@@ -72,10 +74,6 @@ MEAN_FIGURES = (
 BOOTSTRAP_SEED = 0
 #: The time task's score (:data:`~nbv_gym.benchmark.suites.TASK_METRICS`).
 TIME_METRIC = "q_time_auc"
-
-
-class ScorecardError(NbvGymError):
-    """A scorecard file is unreadable or not a scorecard; the message names the file."""
 
 
 def policy_identity(name: str) -> dict[str, Any]:
@@ -140,12 +138,17 @@ def build_scorecard(
         "policy": policy,
         "optimality_target": TARGET_SCORE,
         "runs": runs,
-        "aggregates": {
-            part.split: aggregate(runs, part.split, part.metric) for part in suite.parts
-        },
+        "aggregates": card_aggregates(runs, [part.description() for part in suite.parts]),
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "timing": timing,
     }
+
+
+def card_aggregates(runs: list[dict[str, Any]], parts: list[dict[str, Any]]) -> dict[str, Any]:
+    """The ``aggregates`` of a scorecard: per part of the suite (its ``split`` and ``metric``,
+    as in the card's ``suite.parts``), :func:`aggregate` of its runs. The one place they are
+    computed: :mod:`nbv_gym.benchmark.validation` recomputes a loaded card's with it."""
+    return {part["split"]: aggregate(runs, part["split"], part["metric"]) for part in parts}
 
 
 def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
@@ -247,37 +250,31 @@ def _one_line(match: re.Match[str]) -> str:
     return "[" + re.sub(r",\s+", ", ", match.group(1)) + "]"
 
 
-def load_scorecard(path: str | Path) -> dict[str, Any]:
-    """The scorecard in ``path``; :class:`ScorecardError` if it is not one."""
+def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
+    """The scorecard in ``path``, validated (:func:`~nbv_gym.benchmark.validation.validate_scorecard`:
+    schema, runs and, if ``recompute``, the aggregates recomputed from the runs);
+    :class:`ScorecardError` if it is not one or fails."""
+    from nbv_gym.core.inputs import read_json
+
     path = Path(path)
-    try:
-        card = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, ValueError) as error:
-        raise ScorecardError(f"Cannot read scorecard {path}: {error}") from None
+    card = read_json(path, "Scorecard")
     if not isinstance(card, dict) or card.get("format") != FORMAT:
         raise ScorecardError(
             f'{path} is not an nbv-gym scorecard (no "format": "{FORMAT}"); give the '
             "scorecard.json that `nbv-gym score` wrote."
         )
-    missing = [
-        k for k in ("protocol_version", "suite", "policy", "runs", "aggregates") if k not in card
-    ]
-    if missing:
-        raise ScorecardError(
-            f"Scorecard {path} lacks {', '.join(missing)}; score the policy again."
-        )
-    return card
+    return validate_scorecard(card, path, card_aggregates if recompute else None)
 
 
 def scorecard_markdown(card: dict[str, Any]) -> str:
     """A short Markdown summary: identity, then per split its score (IQM and mean with 95 %
     intervals, optimality gap) overall and per asset type."""
-    from nbv_gym.reporting.formatting import markdown_table
+    from nbv_gym.reporting.formatting import markdown_code, markdown_table
 
     policy, suite = card["policy"], card["suite"]
     oracle = " — **oracle** (reads privileged values; ranked apart)" if policy["oracle"] else ""
     lines = [
-        f"# Scorecard: `{policy['name']}`{oracle}",
+        f"# Scorecard: {markdown_code(policy['name'])}{oracle}",
         "",
         f"Suite `{suite['name']}` (hash `{suite['hash']}`, {len(card['runs'])} runs), protocol "
         f"version {card['protocol_version']}, nbv-gym {card['nbv_gym']['version']} "

@@ -47,12 +47,12 @@ def score_policy(
     address or ``"local"`` (as for sweeps; the runs and so the scorecard are the same as a
     local scoring's); ``python_path``: folders where a ``module:Class`` policy is found;
     ``say``: where phase messages go (default: stderr)."""
-    from nbv_gym.core.outputs import writable_folder
+    from nbv_gym.core.outputs import claim_folder
     from nbv_gym.sweep.runner import default_workers, run_sweep
 
     say = say or _stderr
     start = time.perf_counter()
-    out = writable_folder(Path(out))
+    out = claim_folder(Path(out), "score")  # not a run's, sweep's or training's folder
     identity = policy_identity(policy)
     _check_same_policy(out, policy)
     sources = write_world_specs(suite, out / "worlds")
@@ -70,6 +70,7 @@ def score_policy(
                 "same command to retry them: finished runs are kept."
             )
     runs = [row for part in suite.parts for row in part_runs(suite, part, policy, sources, out)]
+    identity["oracle"] = ran_as_oracle(out, suite)  # what the runs used, not what it declares
     timing = {"wall_time_s": time.perf_counter() - start, "workers": workers or default_workers()}
     card = build_scorecard(suite, identity, runs, timing)
     write_scorecard(card, out)
@@ -155,6 +156,18 @@ def part_runs(
             "rerun the same command to finish them."
         )
     return [run_figures(part, records[spec.key]) for spec in specs]
+
+
+def ran_as_oracle(out: Path, suite: Suite) -> bool:
+    """Whether any run of ``suite`` in ``out`` ran its policy as an oracle (with the full
+    ``info``): the flag each episode read and its sweep record keeps."""
+    from nbv_gym.sweep.folder import ResultStore
+
+    return any(
+        bool(record["run"].get("oracle", False))
+        for part in suite.parts
+        for _, record in ResultStore(out / "parts" / part.split).finished_records()
+    )
 
 
 def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:

@@ -29,11 +29,13 @@ def export(
     map_path: Annotated[Path, typer.Argument(help="Saved map (.npz), e.g. RUN_DIR/map.npz.")],
     format: Annotated[str, typer.Option("--format", help="ply, pcd or bt (OctoMap).")] = "ply",
     min_p: Annotated[
-        float,
+        float | None,
         typer.Option(
-            "--min-p", help="Only voxels with probability ≥ this (ply, pcd).", parser=PROBABILITY
+            "--min-p",
+            help="Only voxels with probability ≥ this (ply, pcd) [default: 0.5].",
+            parser=PROBABILITY,
         ),
-    ] = 0.5,
+    ] = None,
     out: Annotated[
         Path | None, typer.Option(help="File to write (default: the map's name, new suffix).")
     ] = None,
@@ -59,10 +61,15 @@ def export(
         raise ExportError(f"unknown format {format!r}; use one of {', '.join(FORMATS)}")
     if not map_path.is_file():
         raise ExportError(f"{map_path}: the map file {missing_file(map_path)}")
+    if format == "bt" and min_p is not None:
+        raise ExportError(
+            "--min-p applies to ply and pcd; an OctoMap .bt holds the whole map (every voxel "
+            "with its log-odds). Leave --min-p out, or export ply or pcd."
+        )
     out = out or map_path.with_suffix(f".{format}")
     if out.suffix.lower() != f".{format}":
         raise ExportError(f"--out {out} does not end in .{format}; name it *.{format}")
-    count = export_map(load_map(map_path), writable_file(out), min_p)
+    count = export_map(load_map(map_path), writable_file(out), 0.5 if min_p is None else min_p)
     typer.echo(f"{count:,} voxels → {out}")
 
 

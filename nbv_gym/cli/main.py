@@ -36,7 +36,7 @@ class _App(typer.Typer):
         try:
             code = super().__call__(*args, **{**kwargs, "standalone_mode": False})
         except NbvGymError as error:
-            _fail(str(error))
+            _fail(str(error), getattr(error, "exit_code", 2))
         except typer.Abort:
             _fail("aborted.", 1)
         except typer.TyperException as error:  # a bad option or argument (Click's usage errors)
@@ -269,7 +269,7 @@ def run(
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
-    from nbv_gym.policies import is_oracle, load_policy
+    from nbv_gym.policies import load_policy
     from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config
     from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.worlds import load_spec
@@ -297,9 +297,9 @@ def run(
         if animation:
             frames.append(env.render())  # full resolution: halving it aliased
 
-    oracle = is_oracle(agent)
     with staged_folder(out, run_files) as staging:  # a crash leaves an earlier run intact
         result = _episode_of(run_episode, env, agent, seed, report, policy)
+        oracle = result.oracle  # the flag as the episode read it: what the run used
         meta = {"world": world, "policy": policy, "oracle": oracle, "noise": noise,
                 "seed": seed, "task": task, "lidar": lidar}  # fmt: skip
         summary = write_run_folder(staging, env, result, meta)

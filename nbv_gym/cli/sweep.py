@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import warnings
 from pathlib import Path
 from typing import Annotated
 
@@ -175,7 +176,10 @@ def _build_report(results: Path, out: Path | None = None) -> Path:
         f"building the report of {results} (figures, tables, bootstrap intervals)…", err=True
     )
     start = time.perf_counter()
-    built = build_report(results, out)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        built = build_report(results, out)
+    _echo_set_aside([str(w.message) for w in caught if w.category is UserWarning])
     typer.echo(f"report built in {time.perf_counter() - start:.0f} s", err=True)
     return built
 

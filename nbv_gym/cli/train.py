@@ -33,6 +33,12 @@ def train(
         Path | None,
         typer.Option(help="Checkpoint or model zip to continue from (keeps its step count)."),
     ] = None,
+    force: Annotated[
+        bool,
+        typer.Option(
+            help="Replace an earlier training in --out (its files stay until the new one finished)."
+        ),
+    ] = False,
     n_envs: Annotated[
         int | None,
         typer.Option(help="Parallel environments (overrides n_envs).", parser=POSITIVE_COUNT),
@@ -86,7 +92,9 @@ def train(
 
     The run folder holds config.toml, system_info.txt, logs/run-<k>/ (progress.csv and
     TensorBoard events), checkpoints/, best_model.zip (best evaluation), final_model.zip,
-    episodes.csv (every training episode) and learning_curve.png.
+    episodes.csv (every training episode) and learning_curve.png. A folder holding an earlier
+    training is refused unless --resume continues it or --force replaces it; with --force the
+    new files replace the old ones only when the new training finished.
     A model runs as a policy named sb3:PATH in nbv-gym run and in sweep configs. A model zip
     is code (SB3 unpickles it): load only models you trust.
 
@@ -106,13 +114,13 @@ def train(
           --scheduler tls://scheduler.lab:8786
       nbv-gym train --config ppo \\
           --resume runs/ppo/checkpoints/model_8000_steps.zip
+      nbv-gym train --config ppo --force  # replace runs/ppo
       tensorboard --logdir runs/ppo/logs
       nbv-gym run --policy sb3:runs/ppo/best_model.zip --world pp3-trees
     """
     from nbv_gym.configs import config_file
     from nbv_gym.core.outputs import claim_folder
     from nbv_gym.rl.config import load_train_config
-    from nbv_gym.rl.train import train as train_agent
 
     overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
                  "eval_every_steps": eval_every, "device": device,
@@ -120,7 +128,9 @@ def train(
                  "lidar": lidar}  # fmt: skip
     config_path = config_file(config, "train")
     settings = load_train_config(config_path, overrides)
-    out = claim_folder(out or Path("runs") / config_path.stem, "train")
+    out = out or Path("runs") / config_path.stem
+    earlier = _check_train_folder(out, force, resume)
+    claim_folder(out, "train")
     where = f" on {settings.scheduler}" if settings.scheduler else ""
     typer.echo(
         f"{settings.algorithm}: {settings.total_timesteps:,} steps, {settings.n_envs} envs{where}, "
@@ -128,15 +138,50 @@ def train(
         f"{len(settings.eval_worlds)} → {out}",
         err=True,
     )
-    model = train_agent(
-        settings,
-        out,
-        resume=resume,
-        progress_bar=progress,
-        verbose=int(verbose),
-        time_limit_s=None if time_limit is None else 60 * time_limit,
-    )
-    _summary(out, model.num_timesteps)
+    kwargs = {"resume": resume, "progress_bar": progress, "verbose": int(verbose),
+              "time_limit_s": None if time_limit is None else 60 * time_limit}  # fmt: skip
+    steps = _train_into(settings, out, earlier and force and resume is None, kwargs)
+    _summary(out, steps)
+
+
+def _check_train_folder(out: Path, force: bool, resume: Path | None) -> bool:
+    """Whether ``out`` holds an earlier training, after checking that it is not another
+    command's folder and that an earlier training is continued (``--resume``) or replaced
+    (``--force``), never overwritten unasked."""
+    from nbv_gym.core.outputs import OutputError, check_owner
+    from nbv_gym.rl.train import RUN_FILES
+
+    check_owner(out, "train")
+    earlier = [name for name in RUN_FILES if (out / name).exists()]
+    if earlier and not (force or resume):
+        raise OutputError(
+            f"--out {out} holds an earlier training ({', '.join(earlier[:3])}"
+            f"{', …' if len(earlier) > 3 else ''}); pass --resume CHECKPOINT to continue it, "
+            "--force to replace it (its files stay until the new training finished), or give "
+            "another folder."
+        )
+    if force and resume:
+        raise OutputError("--force and --resume: give one (replace the training or continue it).")
+    return bool(earlier)
+
+
+def _train_into(settings, out: Path, staged: bool, kwargs: dict) -> int:
+    """Train into ``out`` (into a staged sibling whose files replace ``out``'s when training
+    finished, if ``staged``) and return the model's step count."""
+    from nbv_gym.core.outputs import staged_folder
+    from nbv_gym.rl.train import RUN_FILES, TrainingInterrupted
+    from nbv_gym.rl.train import train as train_agent
+
+    if not staged:
+        return train_agent(settings, out, **kwargs).num_timesteps
+    try:
+        with staged_folder(out, RUN_FILES) as staging:
+            return train_agent(settings, staging, **kwargs).num_timesteps
+    except (TrainingInterrupted, KeyboardInterrupt):
+        raise TrainingInterrupted(
+            f"interrupted (Ctrl-C); the earlier training in {out} is unchanged (the new one "
+            "was not finished, so it replaced nothing)."
+        ) from None
 
 
 def _summary(out: Path, steps: int) -> None:

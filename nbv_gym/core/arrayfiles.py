@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import math
+import os
 import tokenize
 import zipfile
 import zlib
@@ -30,10 +31,11 @@ _ZIP_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, NotImplemen
 
 def read_npy(path: str | Path) -> np.ndarray:
     """The array of the NPY file at ``path``; the header's shape must fit the file's size."""
+    from nbv_gym.core.inputs import open_input
+
     path = Path(path)
-    size = path.stat().st_size
-    with open(path, "rb") as stream:
-        return _read_array(stream, size, path)
+    with open_input(path, "Array file", MAX_NPZ_BYTES) as stream:
+        return _read_array(stream, os.fstat(stream.fileno()).st_size, path)
 
 
 def read_npz(
@@ -45,8 +47,10 @@ def read_npz(
     path, limit = Path(path), MAX_NPZ_BYTES if max_bytes is None else max_bytes
     wanted = None if names is None else {f"{name}.npy" for name in names}
     arrays, total = {}, 0
+    from nbv_gym.core.inputs import open_input
+
     try:
-        with zipfile.ZipFile(path) as archive:
+        with open_input(path, "Array file", limit) as file, zipfile.ZipFile(file) as archive:
             for info in archive.infolist():
                 if wanted is not None and info.filename not in wanted:
                     continue

@@ -62,13 +62,15 @@ def read_toml(path: str | Path, kind: str) -> dict[str, Any]:
 def read_text(path: str | Path, kind: str) -> str:
     """The UTF-8 text of the config file ``path`` (at most :data:`MAX_CONFIG_BYTES`);
     :class:`ConfigError` naming the ``kind`` of file if it is missing, too large or not text."""
+    from nbv_gym.core.inputs import InputFileError, read_input
+
     path = Path(path)
-    if not path.is_file():
+    if not path.exists() or path.is_dir():
         raise ConfigError(f"{kind} {str(path)!r} {missing_file(path)}.")
-    if path.stat().st_size > MAX_CONFIG_BYTES:
-        raise ConfigError(f"{kind} {str(path)!r} is larger than {MAX_CONFIG_BYTES} bytes.")
     try:
-        return path.read_bytes().decode("utf-8")
+        return read_input(path, kind, MAX_CONFIG_BYTES).decode("utf-8")
+    except InputFileError as error:
+        raise ConfigError(str(error)) from None
     except UnicodeDecodeError as error:
         raise ConfigError(f"{kind} {str(path)!r} is not UTF-8 text (TOML is): {error}") from None
 

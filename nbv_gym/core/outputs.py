@@ -15,6 +15,8 @@ from __future__ import annotations
 import errno
 import os
 import shutil
+import signal
+import threading
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -84,7 +86,8 @@ def _why(error: OSError) -> str:
 #: The file that records which command wrote a folder (``run``, ``sweep``, …).
 OWNER_FILE = ".nbv-gym-owner"
 #: How folders written before :data:`OWNER_FILE` existed are recognised: (command, its file).
-_OWNER_SIGNS = (("sweep", "sweep.toml"), ("train", "system_info.txt"), ("run", "summary.json"))
+_OWNER_SIGNS = (("sweep", "sweep.toml"), ("train", "system_info.txt"), ("run", "summary.json"),
+                ("score", "scorecard.json"))  # fmt: skip
 
 
 def folder_owner(path: str | Path) -> str | None:
@@ -122,23 +125,54 @@ def check_owner(path: str | Path, command: str, option: str = "--out") -> str | 
 @contextmanager
 def staged_folder(out: Path, names: Iterable[str]) -> Iterator[Path]:
     """A temporary sibling of the folder ``out`` to write into. When the block ends normally the
-    files written there replace those of ``out``, and the files of ``names`` it did not write
+    files and folders written there replace those of ``out``, and those of ``names`` it did not write
     are removed from ``out`` (so none is stale); other files of ``out`` stay. When the block
-    raises (a crash, Ctrl-C, ``sys.exit``) the sibling is deleted and ``out`` is left as it was."""
+    raises (a crash, Ctrl-C or SIGTERM, ``sys.exit``) the sibling is deleted and ``out`` is left
+    as it was."""
     staging = out.parent / f".{out.name}.partial-{os.getpid()}"
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
     try:
-        yield staging
+        with terminate_as_interrupt():
+            yield staging
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
     written = {p.name for p in staging.iterdir()}
     for name in set(names) - written:
-        (out / name).unlink(missing_ok=True)
+        _remove(out / name)
     for name in sorted(written):
+        if (out / name).is_dir() and not (out / name).is_symlink():
+            _remove(out / name)  # os.replace cannot replace a folder that holds files
         os.replace(staging / name, out / name)
     staging.rmdir()
+
+
+@contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Around work that cleans up on Ctrl-C: SIGTERM (``kill``, a batch system's stop) raises
+    :class:`KeyboardInterrupt` too, so the same clean-up runs. Only in the main thread (where
+    Python delivers signals); the earlier handler is restored afterwards."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    earlier = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, earlier)
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _remove(path: Path) -> None:
+    """Delete the file or folder ``path`` (nothing if it is missing)."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
 
 
 #: What a failed write means to a user, by ``errno``.

@@ -50,7 +50,7 @@ def read_points(path: str | Path) -> FloatArray:
         raise PointCloudError(
             path, f"unknown point-cloud format {suffix!r}; use one of {', '.join(SUFFIXES)}"
         )
-    if not path.is_file():
+    if not path.exists() or path.is_dir():
         raise PointCloudError(path, f"the point-cloud file {missing_file(path)}")
     try:
         points = readers.get(suffix, _read_text)(path)
@@ -166,7 +166,7 @@ def _read_npy(path: Path) -> FloatArray:
 
 def _read_text(path: Path) -> FloatArray:
     rows: list[list[float]] = []
-    for number, line in enumerate(path.read_text().splitlines(), 1):
+    for number, line in enumerate(_bytes(path).decode().splitlines(), 1):
         fields = line.replace(",", " ").split()
         if not fields or fields[0].startswith("#"):
             continue
@@ -204,8 +204,17 @@ def _header_lines(
     raise PointCloudError(path, f"no {end_marker.decode()!r} line: not a valid header or truncated")
 
 
+def _bytes(path: Path) -> bytes:
+    """The bytes of the point-cloud file ``path``: a regular file of at most
+    :data:`~nbv_gym.core.arrayfiles.MAX_NPZ_BYTES` (:mod:`nbv_gym.core.inputs`)."""
+    from nbv_gym.core.arrayfiles import MAX_NPZ_BYTES
+    from nbv_gym.core.inputs import read_input
+
+    return read_input(path, "Point-cloud file", MAX_NPZ_BYTES)
+
+
 def _read_ply(path: Path) -> FloatArray:
-    data = path.read_bytes()
+    data = _bytes(path)
     if not data.startswith(b"ply"):
         raise PointCloudError(path, "not a PLY file (no 'ply' magic)")
     lines, offset = _header_lines(path, data, b"end_header")
@@ -289,7 +298,7 @@ def _ply_ascii(
 
 
 def _read_pcd(path: Path) -> FloatArray:
-    data = path.read_bytes()
+    data = _bytes(path)
     lines, offset = _header_lines(path, data, b"DATA")
     header = {}
     for line in lines:

@@ -31,9 +31,19 @@ class Pose:
         c, s = np.cos(self.yaw), np.sin(self.yaw)
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
+    def rotate(self, vectors: FloatArray) -> FloatArray:
+        """(n, 3) float: the (n, 3) ``vectors`` of this pose's frame turned into the map frame
+        (by the yaw; z unchanged). Written elementwise, not as a matrix product: a product goes
+        to the BLAS library, whose kernel (chosen by the CPU) may fuse multiply and add and
+        change the last bit, so results would differ between machines."""
+        vectors = np.asarray(vectors, dtype=float)
+        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        x, y = vectors[:, 0], vectors[:, 1]
+        return np.stack((c * x - s * y, s * x + c * y, vectors[:, 2]), axis=1)
+
     def to_map(self, points: FloatArray) -> FloatArray:
         """(n, 3) map-frame points of (n, 3) points given in this pose's frame."""
-        return np.asarray(points) @ self.rotation().T + self.position
+        return self.rotate(points) + self.position
 
 
 @dataclass(frozen=True)

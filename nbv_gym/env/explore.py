@@ -199,6 +199,12 @@ class ExploreEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         """Start an episode (on the next world of a distribution when due): ``(observation,
         info)``."""
+        if options is not None and not isinstance(options, dict):
+            raise ConfigError(
+                f"reset(options=...): expected a dict or None, got {type(options).__name__} "
+                f"{options!r}; ExploreEnv.reset takes no options (choose worlds and budgets in "
+                "the config)"
+            )
         if options:  # none are supported: an option that does nothing must not pass unnoticed
             raise ConfigError(
                 f"reset(options=...): unknown option(s) {sorted(map(str, options))}; "

@@ -93,7 +93,7 @@ class Observer:
         #: the longest path the time budget can buy, metres (None: no time budget)
         self.reach_m = None if time_budget_s is None else time_budget_s * speed_mps
         self._centres = goal_grid.xy_centres().T.copy()  # (2, n_goals): x row, y row
-        self._diagonal = np.linalg.norm(goal_grid.high[:2] - goal_grid.low[:2])
+        self._diagonal = float(np.hypot(*(goal_grid.high[:2] - goal_grid.low[:2])))  # no BLAS
         self._half = goal_grid.high[:2]
         self._n_obs_scale = np.log1p(100 * goal_grid.shape[2])
 

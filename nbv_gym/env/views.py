@@ -17,7 +17,6 @@ apart. The Gymnasium environment itself keeps the full ``info`` (learners' rewar
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -71,21 +70,24 @@ class PrivilegedInfoError(NbvGymError):
 
 
 class AgentView(Mapping):
-    """A read-only view of ``info`` holding only its :data:`AGENT_KEYS`. Arrays come read-only,
-    nested dicts as read-only mappings. Reading any other key of ``info`` (``[]``, ``get``)
-    raises :class:`PrivilegedInfoError`; ``in``, ``len``, iteration and ``keys()`` see the agent
-    keys only."""
+    """The agent values of ``info``, copied: the view holds its :data:`AGENT_KEYS`' values (arrays
+    as read-only copies, nested dicts as read-only copies) and the names of the other keys, and
+    no reference to ``info`` — so neither its attributes, a copy nor a pickle of it reaches a
+    privileged value, and no change to what it hands out reaches the environment's arrays.
+    Reading another key of ``info`` (``[]``, ``get``) raises :class:`PrivilegedInfoError`; ``in``,
+    ``len``, iteration and ``keys()`` see the agent keys only."""
 
-    __slots__ = ("_info", "_reader")
+    __slots__ = ("_reader", "_values", "_withheld")
 
     def __init__(self, info: Mapping[str, Any], reader: str = ""):
-        self._info = info
+        self._values = {key: _copy(info[key]) for key in info if key in AGENT_KEYS}
+        self._withheld = frozenset(key for key in info if key not in AGENT_KEYS)
         self._reader = reader
 
     def __getitem__(self, key: str) -> Any:
-        if key in AGENT_KEYS and key in self._info:
-            return _read_only(self._info[key])
-        if key in PRIVILEGED_KEYS or key in self._info:
+        if key in self._values:
+            return self._values[key]
+        if key in PRIVILEGED_KEYS or key in self._withheld:
             raise PrivilegedInfoError(key, self._reader)
         raise KeyError(key)
 
@@ -97,13 +99,13 @@ class AgentView(Mapping):
             return default
 
     def __contains__(self, key: object) -> bool:
-        return key in AGENT_KEYS and key in self._info
+        return key in self._values
 
     def __iter__(self) -> Iterator[str]:
-        return (key for key in self._info if key in AGENT_KEYS)
+        return iter(self._values)
 
     def __len__(self) -> int:
-        return sum(1 for _ in self)
+        return len(self._values)
 
     def __repr__(self) -> str:
         return f"AgentView({sorted(self)})"
@@ -115,12 +117,35 @@ def agent_view(info: Mapping[str, Any], reader: str = "") -> AgentView:
     return AgentView(info, reader)
 
 
-def _read_only(value: Any) -> Any:
-    """``value`` as the policy may see it: an array as a read-only view, a dict read-only."""
+def _copy(value: Any) -> Any:
+    """``value`` as the policy may see it: an array as a read-only copy (writing to it, even
+    after making it writeable again, changes nothing of the environment's), a dict as a
+    read-only mapping of copies."""
     if isinstance(value, np.ndarray):
-        view = value.view()
-        view.flags.writeable = False
-        return view
+        copy = value.copy()
+        copy.flags.writeable = False
+        return copy
     if isinstance(value, dict):
-        return MappingProxyType(value)
+        return ReadOnlyMapping({key: _copy(item) for key, item in value.items()})
     return value
+
+
+class ReadOnlyMapping(Mapping):
+    """A mapping that cannot be changed (unlike ``MappingProxyType``, it copies and pickles)."""
+
+    __slots__ = ("_data",)
+
+    def __init__(self, data: dict[str, Any]):
+        self._data = data
+
+    def __getitem__(self, key: str) -> Any:
+        return self._data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)
+
+    def __repr__(self) -> str:
+        return repr(self._data)

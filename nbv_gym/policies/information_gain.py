@@ -37,6 +37,9 @@ from nbv_gym.policies.nbv import observation_layer, uniform_choice
 
 #: λ of the trade-off, per metre of path (``experiments/ig-lambda.toml``).
 DEFAULT_LAMBDA = 0.5
+#: The largest λ, per metre: exp(−100 · 1 m) ≈ 4e-44 already makes distance decide alone, and
+#: larger values overflow the product λ · path length.
+MAX_LAMBDA = 100.0
 
 
 class InformationGain:
@@ -60,9 +63,14 @@ class InformationGain:
         try:
             lam = float(lam)
         except ValueError:
-            raise ConfigError(f"lam: expected a number ≥ 0, got {lam!r}") from None
-        if not (math.isfinite(lam) and lam >= 0):
-            raise ConfigError(f"lam: expected a number ≥ 0, got {lam}")
+            raise ConfigError(
+                f"lam: expected a number from 0 to {MAX_LAMBDA:g}, got {lam!r}"
+            ) from None
+        if not (math.isfinite(lam) and 0 <= lam <= MAX_LAMBDA):
+            raise ConfigError(
+                f"lam: expected a number from 0 to {MAX_LAMBDA:g} (per metre; larger values "
+                f"change no decision and overflow), got {lam:g}"
+            )
         self.gain_layer = layer
         self.lam = lam
         self.observation_layers: tuple[str, ...] = (layer, CANDIDATES_LAYER)

@@ -9,6 +9,7 @@ registry (the seven baselines) or as ``module:Class`` for user code.
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
 import sys
 from collections.abc import Iterable, Mapping
@@ -88,7 +89,17 @@ def load_policy(name: str, **kwargs: Any) -> Policy:
             return _import_class(target, name)(name[len(prefix) :], **kwargs)
     base, at, variant = name.partition("@")
     if at and base in POLICIES:
-        parameter = getattr(_import_class(POLICIES[base], base), "variant_parameter", "visibility")
+        cls = _import_class(POLICIES[base], base)
+        parameter = getattr(cls, "variant_parameter", "visibility")
+        if parameter not in inspect.signature(cls).parameters:
+            with_variants = sorted(
+                n for n, t in POLICIES.items() if _has_variant(_import_class(t, n))
+            )
+            raise PolicyError(
+                f"Policy {name!r}: {base} has no variant after '@' (it takes no parameter); "
+                f"the policies that do: {', '.join(with_variants)} (e.g. nbv-nobs@fov, "
+                "ig-unknown@0.1)."
+            )
         name, kwargs = base, {**kwargs, parameter: variant}
     target = POLICIES.get(name, name)
     if ":" not in target:
@@ -107,6 +118,11 @@ def load_policy(name: str, **kwargs: Any) -> Policy:
             f"{' and '.join(missing)}(). A policy needs reset(seed) and act(observation, info)."
         )
     return policy
+
+
+def _has_variant(cls: type) -> bool:
+    """Whether a registered policy class takes a parameter after ``@``."""
+    return getattr(cls, "variant_parameter", "visibility") in inspect.signature(cls).parameters
 
 
 def add_policy_folders(folders: Iterable[str]) -> None:

@@ -3,6 +3,7 @@ and policies), in a module of its own so that the sections import it, not the re
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -26,6 +27,31 @@ def markdown_table(header: list[str], rows: list[list[Any]]) -> str:
 def _cell(value: Any) -> str:
     """A table cell's text: ``|`` escaped, line breaks as spaces (a cell is one line)."""
     return str(value).replace("|", "\\|").replace("\n", " ")
+
+
+def markdown_code(text: object) -> str:
+    """``text`` as a Markdown code span that stays one table cell on one line whatever it holds
+    (a name from a file is data): control characters written as escapes (``\\n``), ``|``
+    escaped for tables, and a backtick fence longer than any run of backticks inside."""
+    shown = printable(text).replace("|", "\\|")
+    longest = max((len(run) for run in re.findall("`+", shown)), default=0)
+    fence = "`" * (longest + 1)
+    pad = " " if shown.startswith("`") or shown.endswith("`") or not shown.strip() else ""
+    return f"{fence}{pad}{shown}{pad}{fence}"
+
+
+def markdown_text(text: object) -> str:
+    """``text`` as plain Markdown on one line: control characters as escapes, and the
+    characters Markdown reads as inline syntax (``|``, ``*``, ``_``, ``[``, ``!``, …) escaped."""
+    return re.sub(r"([\\`*_\[\]!|<>])", r"\\\1", printable(text))
+
+
+def printable(text: object) -> str:
+    """``text`` on one line: each control or other non-printable character written as its
+    escape (a newline as ``\\n``), as a name from a file is shown in tables and legends."""
+    return "".join(
+        ch if ch.isprintable() else ch.encode("unicode_escape").decode("ascii") for ch in str(text)
+    )
 
 
 def oracle_label(policy: str) -> str:

@@ -1,6 +1,7 @@
 """The words of a reproduction verdict, shared by the sweep's and the studies' reports: a claim of
 a paper is reproduced, partly reproduced, not reproduced, inconclusive (the sample cannot reach
-significance), without the paper's value, without data, or not reproducible here."""
+significance), incomplete (the sweep lacks runs), without the paper's value, without data, or
+not reproducible here."""
 
 from __future__ import annotations
 
@@ -14,12 +15,15 @@ NO_DATA = "no data"
 #: The verdict of a claim whose value the paper does not give (legibly): ours is shown alone.
 NO_PAPER_VALUE = "no paper value"
 NOT_REPRODUCIBLE = "not reproducible here"
+#: A claim of a sweep that lacks runs: no verdict until every run is there.
+INCOMPLETE = "incomplete"
 #: Every verdict word, in the order summaries list them.
 VERDICTS = (
     REPRODUCED,
     PARTLY,
     NOT_REPRODUCED,
     INCONCLUSIVE,
+    INCOMPLETE,
     NO_PAPER_VALUE,
     NO_DATA,
     NOT_REPRODUCIBLE,

@@ -20,7 +20,6 @@ page stays responsive.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -211,7 +210,9 @@ def _thin(count: int, limit: int, rng: np.random.Generator) -> np.ndarray:
 
 def _summary(folder: Path | None) -> dict:
     path = folder / "summary.json" if folder else None
-    return json.loads(path.read_text()) if path and path.is_file() else {}
+    from nbv_gym.core.inputs import read_json
+
+    return read_json(path, "Run summary") if path and path.is_file() else {}
 
 
 def _title(source: Path, summary: dict, total: int, shown: int) -> str:

@@ -80,7 +80,17 @@ def load_model(path: Path, device: str = "cpu"):
     check_model_file(path)
     description = describe_model(path)
     check_spaces(description, path)
-    return algorithm_class(description.algorithm).load(path, device=device)
+    try:
+        return algorithm_class(description.algorithm).load(path, device=device)
+    except (KeyboardInterrupt, SystemExit, MemoryError):
+        raise
+    except Exception as error:  # a broken file past the JSON check: torch, pickle or zip errors
+        message = " ".join(str(error).split())[:200] or type(error).__name__
+        raise PolicyError(
+            f"{str(path)!r} is not a loadable model: its data JSON is an SB3 model's, but "
+            f"stable-baselines3 could not load the rest ({type(error).__name__}: {message}). "
+            "The file is damaged or was not written by SB3; train or download it again."
+        ) from None
 
 
 def check_spaces(model, path: Path) -> tuple[str, ...]:

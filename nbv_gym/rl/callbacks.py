@@ -27,12 +27,12 @@ class EpisodeLog(BaseCallback):
         self._writer: csv.DictWriter[str]
 
     def _on_training_start(self) -> None:
-        columns = _header(self.path) or COLUMNS
-        new = not self.path.exists()
+        header = _header(self.path)
         self._file = open(self.path, "a", newline="")
-        self._writer = csv.DictWriter(self._file, columns, extrasaction="ignore")
-        if new:
+        self._writer = csv.DictWriter(self._file, header or COLUMNS, extrasaction="ignore")
+        if header is None:  # a new file, or one left empty by an interrupted training
             self._writer.writeheader()
+            self._file.flush()
 
     def _on_step(self) -> bool:
         for info in self.locals["infos"]:
@@ -45,7 +45,12 @@ class EpisodeLog(BaseCallback):
         self._file.flush()
 
     def _on_training_end(self) -> None:
-        self._file.close()
+        self.close()
+
+    def close(self) -> None:
+        """Flush and close the file (again: nothing)."""
+        if self._file is not None:
+            self._file.close()
 
 
 def episode_row(timesteps: int, info: dict) -> list:

@@ -60,6 +60,11 @@ def record_dataset(
     if episodes < 1:
         raise RecordError(f"--episodes must be ≥ 1, got {episodes}")
     dataset_id = check_path_of_names(dataset_id or default_id(world, policy), "--dataset-id", 3)
+    if not re.search(r"-v\d+$", dataset_id):
+        raise RecordError(
+            f"--dataset-id {dataset_id!r} has no version; Minari ids end in -v<number>, e.g. "
+            f"{dataset_id}-v0."
+        )
     writable_folder(out)
     minari = _minari()
     import gymnasium
@@ -136,11 +141,11 @@ def _episode(env, agent, seed: int, index: int):
 
     from nbv_gym.episode import policy_info, start_episode
 
-    observation, info = start_episode(env, agent, seed)
+    observation, info, oracle = start_episode(env, agent, seed)
     observations, infos, steps = [observation], [_kept(info)], []
     done = False
     while not done:
-        action = int(agent.act(observation, policy_info(agent, info)))
+        action = int(agent.act(observation, policy_info(agent, info, oracle)))
         observation, reward, terminated, truncated, info = env.step(action)
         observations.append(observation)
         infos.append(_kept(info))

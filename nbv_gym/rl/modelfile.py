@@ -95,8 +95,14 @@ def describe_model(path: Path) -> ModelDescription:
 
 def read_model_data(path: Path) -> dict[str, Any]:
     """The parsed ``data`` JSON of the zip at ``path`` (at most :data:`MAX_DATA_BYTES`)."""
+    from nbv_gym.core.arrayfiles import MAX_NPZ_BYTES
+    from nbv_gym.core.inputs import open_input
+
     try:
-        with zipfile.ZipFile(path) as archive:
+        with (
+            open_input(path, "Model file", MAX_NPZ_BYTES) as file,
+            zipfile.ZipFile(file) as archive,
+        ):
             info = archive.getinfo("data")
             if info.file_size > MAX_DATA_BYTES:
                 raise _not_a_model(path, f"its data member has {info.file_size} bytes")

@@ -29,16 +29,26 @@ if TYPE_CHECKING:
     from stable_baselines3.common.vec_env import VecEnv
 
 from nbv_gym.core.config import to_dict
-from nbv_gym.core.errors import ClusterError, ConfigError, MissingExtraError
+from nbv_gym.core.errors import ClusterError, ConfigError, MissingExtraError, NbvGymError
 from nbv_gym.core.progress import say
 from nbv_gym.rl.config import ALGORITHMS, TrainConfig
-from nbv_gym.rl.curve import EPISODES_CSV, plot_learning_curve
+from nbv_gym.rl.curve import CURVE_PNG, EPISODES_CSV, plot_learning_curve
 from nbv_gym.rl.learner import prepare_learner
 
 #: SB3 algorithm class names → ``module:Class`` (SB3's classes saving lean model files).
 ALGORITHM_CLASSES = {name: f"nbv_gym.rl.algorithms:{name}" for name in ALGORITHMS}
 FINAL_MODEL = "final_model.zip"
 BEST_MODEL = "best_model.zip"
+#: What a training writes into its run folder (files and folders): an earlier training's.
+RUN_FILES = ("config.toml", "system_info.txt", "logs", "checkpoints", "eval", BEST_MODEL,
+             FINAL_MODEL, EPISODES_CSV, CURVE_PNG)  # fmt: skip
+
+
+class TrainingInterrupted(NbvGymError):
+    """Training was stopped with Ctrl-C; the model so far is saved as a checkpoint, which the
+    message names with the ``--resume`` that continues from it."""
+
+    exit_code = 130
 
 
 def require_rl() -> None:
@@ -128,10 +138,35 @@ def _learn(model, out: Path, steps: int, **kwargs) -> None:
     try:
         model.learn(steps, **kwargs)
     except ClusterError as error:
-        path = out / "checkpoints" / f"model_{model.num_timesteps}_steps.zip"
-        path.parent.mkdir(exist_ok=True)
-        model.save(path)
+        _close_logs(kwargs.get("callback", ()))
+        path = _save_checkpoint(model, out)
         raise ClusterError(f"{error} The model so far is saved as {path}.") from None
+    except KeyboardInterrupt:
+        _close_logs(kwargs.get("callback", ()))
+        path = _save_checkpoint(model, out)
+        raise TrainingInterrupted(
+            f"interrupted (Ctrl-C) after {model.num_timesteps:,} steps; the model so far is saved "
+            f"as {path}. Continue with --resume {path} (same --config and --out)."
+        ) from None
+
+
+def _close_logs(callbacks) -> None:
+    """Flush and close the episode log among ``callbacks``: SB3 ends callbacks only when
+    training ends normally, and an open log's buffer would otherwise land in the file later,
+    after the rows of a resumed training."""
+    from nbv_gym.rl.callbacks import EpisodeLog
+
+    for callback in callbacks:
+        if isinstance(callback, EpisodeLog):
+            callback.close()
+
+
+def _save_checkpoint(model, out: Path) -> Path:
+    """Save ``model`` as ``out/checkpoints/model_<steps>_steps.zip`` and return that path."""
+    path = out / "checkpoints" / f"model_{model.num_timesteps}_steps.zip"
+    path.parent.mkdir(exist_ok=True)
+    model.save(path)
+    return path
 
 
 def local_envs(config: TrainConfig) -> int:

@@ -225,7 +225,7 @@ class Lidar:
         key = (true_pose.x, true_pose.y, true_pose.z, true_pose.yaw)
         if self._first_cast is not None and self._first_cast[0] == key:
             return self._first_cast[1].copy()
-        world_directions = self.directions @ true_pose.rotation().T
+        world_directions = true_pose.rotate(self.directions)  # no BLAS: same bits on every CPU
         distance = self.scene.cast(true_pose.position, world_directions)
         if self._first_cast is None:
             self._first_cast = (key, distance.copy())

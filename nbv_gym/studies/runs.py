@@ -19,7 +19,9 @@ from typing import cast
 import numpy as np
 
 from nbv_gym.core.arrayfiles import read_npz
+from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GRID_ARRAYS, GridSpec
+from nbv_gym.core.inputs import read_json
 from nbv_gym.mapping.mapfile import load_map
 from nbv_gym.studies import StudyError
 
@@ -106,9 +108,9 @@ def find_runs(root: Path) -> list[RunFolder]:
     for summary in sorted(root.rglob(SUMMARY_NAME)):
         if (summary.parent / MAP_NAME).is_file():
             try:
-                data = json.loads(summary.read_text())
+                data = read_json(summary, "Run summary")
                 runs.append(RunFolder(summary.parent, str(data["world"]), int(data["noise"])))
-            except (ValueError, KeyError, TypeError, OSError) as error:
+            except (ValueError, KeyError, TypeError, OSError, NbvGymError) as error:
                 raise StudyError(f"{summary}: not a run's summary ({error!r})") from None
     if not runs:
         raise StudyError(

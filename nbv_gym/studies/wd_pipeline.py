@@ -16,7 +16,6 @@ files alone.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from dataclasses import asdict
@@ -25,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.core.inputs import read_json
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import claim_folder
 from nbv_gym.core.progress import progress_bar
@@ -183,7 +183,7 @@ def _run_done(path: Path, config: WdStudyConfig, seed: int) -> bool:
     """Whether ``path`` holds a finished run of this policy, seed and step budget."""
     if not all((path / n).is_file() for n in (SUMMARY_NAME, MAP_NAME, SCANS_NAME)):
         return False
-    summary = json.loads((path / SUMMARY_NAME).read_text())
+    summary = read_json(path / SUMMARY_NAME, "Run summary")
     budget = summary.get("config", {}).get("simulator", {}).get("episode", {}).get("max_steps")
     return (summary.get("policy"), summary.get("seed"), budget) == (
         config.policy,

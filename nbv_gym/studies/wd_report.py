@@ -20,11 +20,11 @@ figure we compare and the threshold):
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from nbv_gym.core.inputs import MAX_TABLE_BYTES, open_input, read_json
 from nbv_gym.reporting.formatting import asset_order, markdown_table
 from nbv_gym.reporting.verdicts import NOT_REPRODUCED, NOT_REPRODUCIBLE, PARTLY, REPRODUCED
 from nbv_gym.studies import StudyError
@@ -54,10 +54,11 @@ def build_wd_report(folder: Path) -> Path:
         path = folder / f"{name}.csv"
         if not path.is_file():
             raise StudyError(f"{path}: missing; run `nbv-gym study wd --out {folder}` first")
-        tables[name] = pd.read_csv(path)
+        with open_input(path, "Study table", MAX_TABLE_BYTES) as file:
+            tables[name] = pd.read_csv(file)
     out = folder / "report"
     out.mkdir(exist_ok=True)
-    study = json.loads((folder / "study.json").read_text())
+    study = read_json(folder / "study.json", "Study record")
     robustness = delta_table(tables["ideal_medians"])
     robustness.to_csv(out / "table2_deltas.csv", index=False)
     plot_fig2(tables["ideal_cuboids"], tables["limits"], out / "fig2_ideal_random.png")

@@ -37,6 +37,7 @@ import numpy as np
 
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import NbvGymError
+from nbv_gym.core.inputs import InputFileError, open_input, read_json
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import claim_folder
 from nbv_gym.sweep.config import RunSpec, SweepConfig, dumps_toml, world_name
@@ -180,6 +181,12 @@ class ResultStore:
             previous = from_dict(SweepConfig, read_toml(path, "sweep.toml"))
         except NbvGymError as error:
             raise SweepError(f"{path} is not a valid sweep config ({error}); remove it.") from None
+        if previous.name != config.name:
+            raise SweepError(
+                f"{self.root} holds the results of sweep {previous.name!r}; this is sweep "
+                f"{config.name!r}, whose runs would be mixed with them. Write to another --out "
+                "folder (or give the config the same name to extend that sweep)."
+            )
         old, new = previous.results_fingerprint(), config.results_fingerprint()
         changed = sorted(k for k in old.keys() | new.keys() if old.get(k) != new.get(k))
         if changed:
@@ -211,7 +218,7 @@ class ResultStore:
         if not path.exists():
             return {}
         try:
-            digests = json.loads(path.read_text())
+            digests = read_json(path, "World digests")
             if not isinstance(digests, dict):
                 raise ValueError("not a table")
             return digests
@@ -383,10 +390,10 @@ class ResultStore:
         if any(path.stat().st_mtime > built for path in files):
             return True
         try:
-            manifest = json.loads((self.root / MANIFEST_NAME).read_text())
+            manifest = read_json(self.root / MANIFEST_NAME, "Table manifest")
             sizes = {name: (self.root / name).stat().st_size for name in manifest["sizes"]}
             return sizes != manifest["sizes"] or manifest["files"] != self._record_files()
-        except (OSError, ValueError, KeyError, TypeError):
+        except (OSError, ValueError, KeyError, TypeError, NbvGymError):
             return True
 
     def _check_is_results_folder(self) -> None:
@@ -545,21 +552,23 @@ def _read_failure(path: Path) -> dict[str, Any]:
 
 def _read_json(path: Path) -> Any:
     try:
-        return json.loads(path.read_text())
-    except UnicodeDecodeError:
-        raise CorruptFileError("is not text") from None
-    except json.JSONDecodeError as error:
-        raise CorruptFileError(f"is not valid JSON ({error})") from None
+        return read_json(path, "Run record")
+    except InputFileError as error:
+        raise CorruptFileError(str(error).removeprefix(f"Run record {path} ")) from None
 
 
 def _check_archive(path: Path) -> None:
     """Raise :class:`CorruptFileError` unless ``path`` is an npz archive (its directory is read,
     not its data) with a ``cuboid`` column."""
+    from nbv_gym.core.arrayfiles import MAX_NPZ_BYTES
+
+    if not path.exists():
+        raise CorruptFileError(f"has no cuboid table ({path.name} is missing)")
     try:
-        with zipfile.ZipFile(path) as archive:
-            names = archive.namelist()
-    except FileNotFoundError:
-        raise CorruptFileError(f"has no cuboid table ({path.name} is missing)") from None
+        with open_input(path, "Cuboid table", MAX_NPZ_BYTES) as file, zipfile.ZipFile(file) as z:
+            names = z.namelist()
+    except InputFileError as error:
+        raise CorruptFileError(f"has an unusable cuboid table ({error})") from None
     except (zipfile.BadZipFile, OSError, EOFError) as error:
         raise CorruptFileError(f"has an unreadable cuboid table {path.name} ({error})") from None
     if "cuboid.npy" not in names:

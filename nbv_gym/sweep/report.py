@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.core.inputs import MAX_TABLE_BYTES, open_input
 from nbv_gym.mapping.statistics import STATISTICS
 from nbv_gym.policies import PAPER_POLICIES
 from nbv_gym.reporting.formatting import (
@@ -59,6 +60,13 @@ class Results:
     cuboids_path: Path
     target: float
     policies: list[str]
+    #: Runs the folder's sweep.toml lists (None without one).
+    expected: int | None = None
+
+    @property
+    def missing(self) -> int:
+        """Runs sweep.toml lists that the tables lack (neither finished nor failed)."""
+        return max(self.expected - len(self.runs), 0) if self.expected is not None else 0
 
 
 def build_report(results: str | Path, out: str | Path | None = None, seed: int = 0) -> Path:
@@ -68,6 +76,14 @@ def build_report(results: str | Path, out: str | Path | None = None, seed: int =
     out = Path(out) if out else results / "report"
     out.mkdir(parents=True, exist_ok=True)
     data = load_results(results)
+    if data.missing:
+        import warnings
+
+        warnings.warn(
+            f"{results} lacks {data.missing} of its {data.expected} runs; the report says so "
+            "and marks no claim reproduced (rerun `nbv-gym sweep` to complete it)",
+            stacklevel=2,
+        )
     rng = np.random.default_rng(seed)
     ok = data.runs[data.runs["status"] == "ok"].copy()
     ok["auc"] = run_aucs(ok, data.steps, data.target)
@@ -101,10 +117,12 @@ def load_results(results: Path) -> Results:
                 "`nbv-gym sweep CONFIG --out DIR` first, then `nbv-gym report DIR`."
             )
         ResultStore(results).consolidate()
-    runs = pd.read_csv(results / "runs.csv", dtype={"asset": str})
-    steps = pd.read_csv(results / "steps.csv")
+    with open_input(results / "runs.csv", "Sweep table", MAX_TABLE_BYTES) as file:
+        runs = pd.read_csv(file, dtype={"asset": str})
+    with open_input(results / "steps.csv", "Sweep table", MAX_TABLE_BYTES) as file:
+        steps = pd.read_csv(file)
     runs["asset"] = runs["asset"].fillna("")
-    target, order = _config_facts(results / "sweep.toml")
+    target, order, expected = _config_facts(results / "sweep.toml")
     labels = oracle_labels(runs)
     runs["policy"], steps["policy"] = (
         runs["policy"].replace(labels),
@@ -114,7 +132,7 @@ def load_results(results: Path) -> Results:
     present = list(dict.fromkeys(runs["policy"]))
     policies = [p for p in (*order, *PAPER_POLICIES, *present) if p in present]
     policies = sorted(dict.fromkeys(policies), key=is_oracle_label)  # oracles last, stable
-    return Results(runs, steps, results / "cuboids.parquet", target, policies)
+    return Results(runs, steps, results / "cuboids.parquet", target, policies, expected)
 
 
 def oracle_labels(runs) -> dict[str, str]:
@@ -126,17 +144,20 @@ def oracle_labels(runs) -> dict[str, str]:
     return {p: oracle_label(p) for p in dict.fromkeys(runs.loc[flagged, "policy"])}
 
 
-def _config_facts(path: Path) -> tuple[float, list[str]]:
-    """The discovered target and policy order of the folder's sweep.toml (defaults if absent)."""
+def _config_facts(path: Path) -> tuple[float, list[str], int | None]:
+    """The discovered target, policy order and number of runs of the folder's sweep.toml
+    (defaults and None if absent)."""
     from nbv_gym.core.config import read_toml
     from nbv_gym.core.protocol import DISCOVERED_TARGET
 
     target = DISCOVERED_TARGET
     if not path.exists():
-        return target, []
+        return target, [], None
     data = read_toml(path, "sweep.toml")
     episode = data.get("env", {}).get("simulator", {}).get("episode", {})
-    return float(episode.get("discovered_target", target)), list(data.get("policies", []))
+    counts = [len(data.get(key, [])) for key in ("worlds", "noise", "policies")]
+    expected = int(np.prod(counts)) * int(data.get("repeats", 1))
+    return float(episode.get("discovered_target", target)), list(data.get("policies", [])), expected
 
 
 def run_aucs(runs, steps, target: float) -> np.ndarray:
@@ -162,8 +183,14 @@ def _header(results: Path, data: Results, ok) -> str:
     lines = [
         f"# nbv-gym sweep report: `{results.name}`",
         "",
-        f"{len(ok)} finished runs, {failed} failed. "
-        f"Worlds: {', '.join(sorted(runs['world'].unique()))}. "
+        *_incomplete(data),
+        f"{len(ok)} finished runs, {failed} failed"
+        + (
+            f", {data.missing} missing of the {data.expected} its sweep.toml lists. "
+            if data.missing
+            else ". "
+        )
+        + f"Worlds: {', '.join(sorted(runs['world'].unique()))}. "
         f"Noise levels: {', '.join(str(n) for n in sorted(runs['noise'].unique()))}. "
         f"Policies: {', '.join(data.policies)}. "
         f"Repeats: {runs['repeat'].nunique()}. Discovered target: {data.target:.0%}.",
@@ -180,6 +207,19 @@ def _header(results: Path, data: Results, ok) -> str:
             f"median {ok['steps'].median():.0f} steps per run.",
         ]
     return "\n".join(lines)
+
+
+def _incomplete(data: Results) -> list[str]:
+    """The warning that heads the report of a sweep whose tables lack runs."""
+    if not data.missing:
+        return []
+    return [
+        f"**Incomplete sweep: {data.missing} of its {data.expected} runs are missing** (not run "
+        "yet, or their files were removed). Figures below use the runs present; no claim is "
+        "marked reproduced until every run is there. Rerun the same `nbv-gym sweep` command to "
+        "complete it.",
+        "",
+    ]
 
 
 def _failures_section(runs) -> str:
@@ -280,7 +320,8 @@ def _read_cuboids(path: Path, filters, columns=None):
 
     if not path.exists():
         return None
-    table = pq.read_table(path, filters=filters or None, columns=columns)
+    with open_input(path, "Cuboid table", MAX_TABLE_BYTES) as file:
+        table = pq.read_table(file, filters=filters or None, columns=columns)
     return table.to_pandas() if table.num_rows else None
 
 
@@ -294,6 +335,7 @@ def _indicator_section(ok, data: Results, out: Path) -> str:
 
 
 def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> str:
+    from nbv_gym.reporting.verdicts import INCOMPLETE, NO_DATA
     from nbv_gym.sweep.tables import verdict_section
     from nbv_gym.sweep.verdict import verdict_table
 
@@ -304,13 +346,19 @@ def _verdict_section(ok, data: Results, out: Path, rng: np.random.Generator) -> 
     cuboids = _read_cuboids(data.cuboids_path, [("noise", "=", int(noise))], columns)
     shares_path = out / "table2.csv"
     shares = _read_table2(shares_path) if shares_path.exists() else None
-    return verdict_section(verdict_table(ok, data.steps, cuboids, shares, rng), out)
+    table = verdict_table(ok, data.steps, cuboids, shares, rng)
+    if data.missing:  # a verdict on part of the runs is no verdict
+        table["verdict"] = table["verdict"].where(
+            table["verdict"].str.startswith(NO_DATA), f"{INCOMPLETE} ({data.missing} runs missing)"
+        )
+    return verdict_section(table, out)
 
 
 def _read_table2(path: Path):
     import pandas as pd
 
-    return pd.read_csv(path, index_col=0)
+    with open_input(path, "Table", MAX_TABLE_BYTES) as file:
+        return pd.read_csv(file, index_col=0)
 
 
 def _fig1_lines(ok, data: Results, out: Path) -> list[str]:

@@ -169,7 +169,10 @@ def summary_rows(out: str | Path, policies: tuple[str, ...] = ()) -> list[dict[s
     ``out/runs.csv``) in the order of ``policies``, for the table printed at the end of a sweep."""
     import pandas as pd
 
-    runs = pd.read_csv(Path(out) / "runs.csv")
+    from nbv_gym.core.inputs import MAX_TABLE_BYTES, open_input
+
+    with open_input(Path(out) / "runs.csv", "Sweep table", MAX_TABLE_BYTES) as file:
+        runs = pd.read_csv(file)
     order = [p for p in (*policies, *runs["policy"]) if p in set(runs["policy"])]
     rows = []
     for policy in dict.fromkeys(order):

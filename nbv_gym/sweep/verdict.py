@@ -225,7 +225,8 @@ def paired_at_fractions(runs, steps, column: str = "q_paper"):
         if k in by_key else np.full(len(grid), np.nan)
         for k in runs["key"]
     ]  # fmt: skip
-    return pd.DataFrame(np.vstack(values), index=runs.index, columns=list(FRACTIONS))
+    table = np.vstack(values) if values else np.empty((0, len(grid)))  # no runs: no rows
+    return pd.DataFrame(table, index=runs.index, columns=list(FRACTIONS))
 
 
 def q_after_scans(runs, steps, scans=SCANS):
@@ -238,7 +239,8 @@ def q_after_scans(runs, steps, scans=SCANS):
     curves = curves_at(steps, "step", "q", np.asarray(scans, float))
     empty = np.full(len(scans), np.nan)
     values = [curves.get(k, empty) for k in runs["key"]]
-    return pd.DataFrame(np.vstack(values), index=runs.index, columns=list(scans))
+    table = np.vstack(values) if values else np.empty((0, len(scans)))  # no runs: no rows
+    return pd.DataFrame(table, index=runs.index, columns=list(scans))
 
 
 @dataclass(frozen=True)

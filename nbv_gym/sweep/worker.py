@@ -148,7 +148,7 @@ def _run(task: RunTask, on_step) -> dict[str, Any]:
     from nbv_gym.core.config import from_dict
     from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode
-    from nbv_gym.policies import is_oracle, load_policy
+    from nbv_gym.policies import load_policy
     from nbv_gym.worlds.spec import asset_type
 
     spec = task.spec
@@ -170,7 +170,7 @@ def _run(task: RunTask, on_step) -> dict[str, Any]:
         "policy": spec.policy,
         "repeat": spec.repeat,
         "seed": spec.seed,
-        "oracle": is_oracle(policy),
+        "oracle": result.oracle,  # as the episode read it: what the run used
         "status": "ok",
         "steps": len(result.steps) - 1,
         "end_reason": result.end_reason,

@@ -75,8 +75,8 @@ def transport_frames(path: FloatArray) -> tuple[FloatArray, FloatArray]:
     u = np.empty_like(tangents)
     u[0] = _any_perpendicular(tangents[0])
     for n in range(1, len(path)):
-        w = u[n - 1] - np.dot(u[n - 1], tangents[n]) * tangents[n]
-        norm = np.linalg.norm(w)
+        w = u[n - 1] - (u[n - 1] * tangents[n]).sum() * tangents[n]  # no BLAS dot: same bits
+        norm = np.sqrt((w * w).sum())  # on every CPU (np.linalg.norm of a vector is a BLAS dot)
         u[n] = w / norm if norm > 1e-9 else _any_perpendicular(tangents[n])
     return u, np.cross(tangents, u)
 
@@ -143,9 +143,10 @@ def place(mesh: Mesh, xy: FloatArray, yaw: float, scale_xy: float, scale_z: floa
     about the vertical axis and moved to ground position ``xy`` (2,) metres."""
     vertices, faces = mesh
     c, s = np.cos(yaw), np.sin(yaw)
-    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
     scaled = vertices * [scale_xy, scale_xy, scale_z]
-    return scaled @ rotation.T + [xy[0], xy[1], 0.0], faces
+    x, y = scaled[:, 0], scaled[:, 1]  # turned elementwise: a matrix product's BLAS kernel
+    turned = np.stack((c * x - s * y, s * x + c * y, scaled[:, 2]), axis=1)  # varies by CPU
+    return turned + [xy[0], xy[1], 0.0], faces
 
 
 def footprint_radius(mesh: Mesh) -> float:

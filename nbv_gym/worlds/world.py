@@ -2,19 +2,23 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
+import warnings
 import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.config import check, to_dict
+from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.names import check_name
 from nbv_gym.core.progress import say, say_if_compiling
 from nbv_gym.core.protocol import RESOLUTION_M
@@ -189,9 +193,10 @@ def cache_path(spec: AnySpec) -> Path:
 def load_world(
     name_or_path: str | Path | AnySpec, cache: bool = True, rebuild: bool = False
 ) -> World:
-    """The world of a benchmark name, a spec file path or a :class:`WorldSpec`, loaded from the
-    cache when built before (and built, then cached, otherwise; ``rebuild``: built again, the
-    cached file replaced atomically).
+    """The world of a benchmark name, a spec file path or a spec, loaded from the cache when
+    built before (and built, then cached, otherwise; ``rebuild``: built again, the cached file
+    replaced atomically). A cached file is used only if its content is the one built from the
+    spec (:func:`content_digest`); any other is built again.
 
     Processes that want the same uncached world at once (the workers of a sweep or a score)
     build it once: the builder holds a lock file beside the cache file, the others wait for it,
@@ -204,26 +209,33 @@ def load_world(
     if not cache:
         return _build(spec, None)
     path = cache_path(spec)
-    if not rebuild and (world := _cached(path, spec)) is not None:
+    if not rebuild and (world := _from_cache(path, spec)) is not None:
         return world
     from filelock import FileLock
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with FileLock(path.with_suffix(".lock")):
-        if not rebuild and (world := _cached(path, spec)) is not None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = FileLock(path.with_suffix(".lock"))
+        lock.acquire()
+    except OSError as error:  # a read-only cache folder: build without caching
+        _cannot_cache(path, error)
+        return _build(spec, None)
+    try:
+        if not rebuild and (world := _from_cache(path, spec)) is not None:
             return world  # another process built it while this one waited
         return _build(spec, path)
+    finally:
+        lock.release()
 
 
-def _cached(path: Path, spec: AnySpec) -> World | None:
-    """The world cached at ``path``, or None when there is none (a corrupt or partial file is
-    removed, to be rebuilt)."""
+def _from_cache(path: Path, spec: AnySpec) -> World | None:
+    """The world cached at ``path``, or None when there is none or it is unusable (then said)."""
     if not path.exists():
         return None
     try:
         return _read(path, spec)
-    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
-        path.unlink(missing_ok=True)
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile, NbvGymError) as error:
+        say(f"the cached world {path} is unusable ({_one_line(error)}); building it again")
         return None
 
 
@@ -233,21 +245,43 @@ def _build(spec: AnySpec, path: Path | None) -> World:
     say(f"building world {spec.name} (mesh + ground truth), once per content…")
     start = time.perf_counter()
     world = build_world(spec)
-    if path is not None:
-        _write(path, world)
+    cached = path is not None and _store(path, world)
     say(
         f"world {spec.name} built in {time.perf_counter() - start:.0f} s"
-        + (f", cached in {path}" if path is not None else "")
+        + (f", cached in {path}" if cached else "")
     )
     return world
 
 
-def _write(path: Path, world: World) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
+def _store(path: Path, world: World) -> bool:
+    """Write ``world`` to the cache file ``path``; False, saying why and what to do, if the
+    cache folder cannot take it (read-only, full): the world is then built again next time."""
+    try:
+        _write(path, world)
+        return True
+    except OSError as error:
+        _cannot_cache(path, error)
+        return False
+
+
+def _cannot_cache(path: Path, error: OSError) -> None:
+    warnings.warn(
+        f"cannot cache the world in {path.parent} ({error.strerror or error}); it will be "
+        f"built again next time. Set {CACHE_ENV} to a writable folder to keep it.",
+        stacklevel=4,
+    )
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split()) or type(error).__name__
+
+
+def _arrays(world: World) -> dict[str, Any]:
+    """The arrays a cache file holds (besides its spec and digest); a scene world's frame as
+    JSON."""
     placed = world.layout
-    temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
-    np.savez(
-        temporary,
+    frame = to_dict(world.frame) if world.frame is not None else None
+    return dict(
         vertices=world.vertices,
         faces=world.faces,
         asset_faces=world.asset_faces,
@@ -259,27 +293,56 @@ def _write(path: Path, world: World) -> None:
         scale_z=placed.scale_z,
         kind=placed.kind,
         variant=placed.variant,
-        spec=json.dumps(to_dict(world.spec)),
-        frame=json.dumps(to_dict(world.frame) if world.frame is not None else None),
+        frame=np.array(json.dumps(frame)),
     )
-    os.replace(temporary, path)
+
+
+def content_digest(arrays: dict[str, Any], spec: AnySpec) -> str:
+    """SHA-256 of a cache file's content: the spec's digest and generator version, then each
+    array's name, dtype, shape and bytes (sorted by name)."""
+    digest = hashlib.sha256(f"{spec.digest()}-v{GENERATOR_VERSION}".encode())
+    for name in sorted(arrays):
+        array = np.ascontiguousarray(arrays[name])
+        digest.update(f"{name}:{array.dtype.str}:{array.shape}".encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()
+
+
+def _write(path: Path, world: World) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = _arrays(world)
+    temporary = path.with_suffix(f".{os.getpid()}.tmp.npz")
+    try:
+        np.savez(
+            temporary,
+            **arrays,
+            spec=json.dumps(to_dict(world.spec)),
+            digest=content_digest(arrays, world.spec),
+        )
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
 
 
 def _read(path: Path, spec: AnySpec) -> World:
-    with np.load(path) as data:
-        placed = Layout(
-            data["xy"],
-            data["yaw"],
-            data["scale_xy"],
-            data["scale_z"],
-            data["kind"],
-            data["variant"],
-        )
-        truth = GroundTruth(data["ground_truth"], float(data["res"]))
-        frame = _frame(json.loads(str(data["frame"]))) if "frame" in data.files else None
-        return World(
-            spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth, frame
-        )
+    """The world in the cache file ``path``, after checking that its content is the one built
+    from ``spec`` (its digest, recomputed); ``ValueError`` naming what differs otherwise."""
+    from nbv_gym.core.arrayfiles import read_npz
+
+    data = read_npz(path)
+    digest, stored_spec = str(data.pop("digest", "")), str(data.pop("spec", ""))
+    if stored_spec != json.dumps(to_dict(spec)):
+        raise ValueError("it holds another spec")
+    if digest != content_digest(data, spec):
+        raise ValueError("its content does not match its digest: edited, truncated or older")
+    placed = Layout(
+        data["xy"], data["yaw"], data["scale_xy"], data["scale_z"], data["kind"], data["variant"]
+    )
+    truth = GroundTruth(data["ground_truth"], float(data["res"]))
+    frame = _frame(json.loads(str(data["frame"])))
+    return World(
+        spec, data["vertices"], data["faces"], int(data["asset_faces"]), placed, truth, frame
+    )
 
 
 def _frame(data: dict | None) -> SceneFrame | None:

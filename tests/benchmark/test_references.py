@@ -152,10 +152,18 @@ def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, 
     timings = ("decision_time_s", "wall_time_s")
     # the figures the stored run holds (a newer protocol version adds figures, never moves one)
     then = {k: v for k, v in then.items() if k not in timings}
-    now = {k: now[k] for k in then}
-    assert close(json.loads(dumps_strict(now)), then), (
-        f"{name}'s run {spec.key} moved; {REGENERATE}"
-    )
+    now = json.loads(dumps_strict({k: now[k] for k in then}))
+    mapped = {k: now.pop(k) for k in MAP_FIGURES}, {k: then.pop(k) for k in MAP_FIGURES}
+    assert close(now, then), f"{name}'s run {spec.key} decided otherwise; {REGENERATE}"
+    assert close(*mapped, rel=CROSS_MACHINE_RTOL), f"{name}'s run {spec.key} moved; {REGENERATE}"
+
+
+#: Figures of a run that come from where scan points fall in voxels: on another CPU (Embree's
+#: code path, libm) a return's last bit can move a point across a voxel face, so they are
+#: compared to the cross-machine tolerance docs/benchmark.md states; the decisions (steps, end,
+#: path) exactly.
+MAP_FIGURES = ("q", "q_paper", "q_paper_70", "discovered")
+CROSS_MACHINE_RTOL = 1e-3
 
 
 @pytest.mark.parametrize("suite", SUITES)

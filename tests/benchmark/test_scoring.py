@@ -21,6 +21,7 @@ from nbv_gym.benchmark.scorecard import (
 )
 from nbv_gym.benchmark.scoring import ScoreError, score_policy
 from nbv_gym.benchmark.suites import PROTOCOL_VERSION
+from nbv_gym.core.errors import NbvGymError
 
 
 def strict_json(text: str):
@@ -224,5 +225,5 @@ def test_load_scorecard_refuses_other_files(tmp_path):
     with pytest.raises(ScorecardError, match="is not an nbv-gym scorecard"):
         load_scorecard(path)
     path.write_text("{nope")
-    with pytest.raises(ScorecardError, match="Cannot read scorecard"):
+    with pytest.raises(NbvGymError, match=r"Scorecard .* is not valid JSON"):
         load_scorecard(path)

@@ -177,3 +177,21 @@ def test_unmasked_algorithms_train_and_act_on_valid_goals(
     assert not policy.masked
     result = run_episode(make_env(env_config(world, max_steps=4), policy), policy, seed=1)
     assert len(result.steps) >= 2
+
+
+@pytest.mark.parametrize("member", ["policy.pth", "pytorch_variables.pth", "policy.optimizer.pth"])
+def test_a_model_zip_broken_past_its_data_json_is_one_line(tmp_path, member):
+    import zipfile
+
+    from nbv_gym.policies import model_path
+
+    broken = tmp_path / "broken.zip"
+    with zipfile.ZipFile(model_path("ppo-budget")) as source, zipfile.ZipFile(broken, "w") as out:
+        for info in source.infolist():
+            data = source.read(info)
+            out.writestr(info, data[: len(data) // 3] if info.filename == member else data)
+    if member not in zipfile.ZipFile(broken).namelist():
+        pytest.skip(f"the shipped model has no {member}")
+    with pytest.raises(PolicyError, match="is not a loadable model") as error:
+        SB3Policy(broken).reset(0)
+    assert "\n" not in str(error.value)

@@ -161,3 +161,103 @@ def test_an_episode_log_of_an_older_version_keeps_its_columns(tmp_path):
     with open(path, newline="") as file:
         rows = list(csv.reader(file))
     assert rows == [list(COLUMNS[:-1]), ["4", "w", "1.5", "4", "0.5", "0.25", "3"]]
+
+
+def _train_cli(capsys, *args) -> tuple[int, str]:
+    """``nbv-gym train ARGS`` through the CLI's error boundary: (exit code, stderr)."""
+    capsys.readouterr()
+    try:
+        app(args=["train", *map(str, args)], prog_name="nbv-gym")
+        code = 0
+    except SystemExit as exit:
+        code = exit.code if isinstance(exit.code, int) else 1
+    return code, capsys.readouterr().err
+
+
+def _sha256s(folder) -> dict[str, str]:
+    import hashlib
+
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+@pytest.fixture
+def earlier(cli_run, config_file, tmp_path):
+    """A copy of a finished training folder, its SHA-256s, and the options to train into it."""
+    import shutil
+
+    out = tmp_path / "run"
+    shutil.copytree(cli_run, out)
+    options = ["--config", config_file, "--n-envs", "1", "--device", "cpu", "--no-progress",
+               "--out", out]  # fmt: skip
+    return out, _sha256s(out), options
+
+
+@pytest.mark.parametrize("extra", [[], ["--timesteps", "48"], ["--seed", "5"]])
+def test_training_into_a_finished_training_folder_is_refused(earlier, capsys, extra):
+    out, before, options = earlier
+    code, err = _train_cli(capsys, *options, *extra)
+    assert code == 2 and "Traceback" not in err
+    assert "holds an earlier training" in err and "--force" in err and "--resume" in err
+    assert _sha256s(out) == before
+
+
+def test_an_unfinished_force_leaves_the_earlier_training_intact(earlier, capsys, monkeypatch):
+    out, before, options = earlier
+
+    def stopped(out):
+        raise KeyboardInterrupt  # Ctrl-C after the new model was saved in the staging folder
+
+    monkeypatch.setattr("nbv_gym.rl.train.plot_learning_curve", stopped)
+    code, err = _train_cli(capsys, *options, "--timesteps", "48", "--force")
+    assert code == 130 and "earlier training" in err and "unchanged" in err
+    assert _sha256s(out) == before
+    assert [p.name for p in out.parent.iterdir()] == ["run"]  # no staging folder left
+
+
+def test_force_replaces_a_training_when_it_finished(earlier, capsys):
+    out, before, options = earlier
+    code, err = _train_cli(capsys, *options, "--timesteps", "48", "--force")
+    assert code == 0, err
+    assert tomllib.loads((out / "config.toml").read_text())["total_timesteps"] == 48
+    after = _sha256s(out)
+    assert after["final_model.zip"] != before["final_model.zip"]
+    assert set(after) >= {
+        "final_model.zip",
+        "config.toml",
+        "episodes.csv",
+        "logs/run-1/progress.csv",
+    }
+    assert not any(name.startswith("logs/run-2") for name in after)  # the old logs went with it
+    assert [p.name for p in out.parent.iterdir()] == ["run"]
+
+
+def test_resume_continues_a_finished_training_in_its_folder(earlier, capsys):
+    out, _, options = earlier
+    code, err = _train_cli(
+        capsys, *options, "--timesteps", "48", "--resume", out / "final_model.zip"
+    )
+    assert code == 0, err
+    assert (out / "logs" / "run-2").is_dir()
+
+
+def test_ctrl_c_in_training_saves_a_checkpoint_and_names_resume(
+    config_file, capsys, tmp_path, monkeypatch
+):
+    def ctrl_c(self):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("nbv_gym.rl.callbacks.EpisodeLog._on_rollout_end", ctrl_c)
+    out = tmp_path / "fresh"
+    options = ["--config", config_file, "--timesteps", "48", "--n-envs", "1", "--device", "cpu",
+               "--no-progress", "--out", out]  # fmt: skip
+    code, err = _train_cli(capsys, *options)
+    assert code == 130 and "Traceback" not in err
+    saved = sorted((out / "checkpoints").glob("model_*_steps.zip"))
+    assert len(saved) == 1 and f"--resume {saved[0]}" in err
+    monkeypatch.undo()
+    code, err = _train_cli(capsys, *options, "--resume", saved[0])
+    assert code == 0, err

@@ -179,3 +179,62 @@ def test_two_processes_on_a_cold_cache_build_a_world_once(tmp_path):
     assert [worker.returncode for worker in workers] == [0, 0], stderr
     assert sum(text.count("building world concurrent") for text in stderr) == 1, stderr
     assert len(list((tmp_path / "cache" / "worlds").glob("concurrent-*.npz"))) == 1
+
+
+def _rewrite_cache(path, **changes):
+    """Rewrite the cache file ``path`` as a valid .npz with some arrays changed."""
+    with np.load(path) as data:
+        arrays = {name: data[name] for name in data.files}
+    arrays.update(changes)
+    with open(path, "wb") as file:
+        np.savez(file, **arrays)
+
+
+@pytest.mark.parametrize(
+    "tamper",
+    [
+        lambda a: {"ground_truth": a["ground_truth"][: len(a["ground_truth"]) // 2]},
+        lambda a: {"ground_truth": a["ground_truth"][:0]},
+        lambda a: {"vertices": a["vertices"] + 0.5},
+        lambda a: {"xy": a["xy"][::-1]},
+        lambda a: {"digest": np.array("0" * 64)},
+        lambda a: {"spec": np.array(str(a["spec"]).replace('"seed": 43', '"seed": 44'))},
+    ],
+    ids=["shortened truth", "no truth", "moved mesh", "other layout", "digest", "spec"],
+)
+def test_a_tampered_cache_file_is_rebuilt_not_trusted(world_cache, tamper):
+    spec = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 43"), "tiny")
+    built = load_world(spec)
+    path = cache_path(spec)
+    with np.load(path) as data:
+        arrays = {name: data[name] for name in data.files}
+    _rewrite_cache(path, **tamper(arrays))
+    loaded = load_world(spec)
+    np.testing.assert_array_equal(loaded.ground_truth.voxels, built.ground_truth.voxels)
+    np.testing.assert_array_equal(loaded.vertices, built.vertices)
+    np.testing.assert_array_equal(loaded.layout.xy, built.layout.xy)
+    with np.load(path) as data:  # and the cache holds the true world again
+        np.testing.assert_array_equal(data["ground_truth"], built.ground_truth.voxels)
+
+
+def test_a_cache_file_of_another_spec_under_this_name_is_rebuilt(world_cache):
+    mine = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 45"), "tiny")
+    other = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 46"), "tiny")
+    load_world(other)
+    cache_path(other).replace(cache_path(mine))
+    np.testing.assert_array_equal(load_world(mine).vertices, build_world(mine).vertices)
+
+
+def test_a_read_only_cache_folder_is_named_and_the_world_still_loads(world_cache, monkeypatch):
+    import errno
+
+    def read_only(file, **arrays):
+        raise OSError(errno.EROFS, "Read-only file system", str(file))
+
+    monkeypatch.setattr("nbv_gym.worlds.world.np.savez", read_only)  # root writes anywhere
+    spec = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 47"), "tiny")
+    folder = cache_path(spec).parent
+    with pytest.warns(UserWarning, match=f"cannot cache the world in {folder} \\(Read-only"):
+        world = load_world(spec)
+    assert world.ground_truth.voxels.size > 0 and not cache_path(spec).exists()
+    assert not list(folder.glob("*.tmp.npz"))

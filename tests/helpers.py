@@ -4,11 +4,14 @@ test path, see ``[tool.pytest.ini_options] pythonpath``)."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import signal
 import subprocess
 import sys
 import tracemalloc
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +37,31 @@ def write_tiny_world(folder: Path, name: str = "tiny.toml") -> Path:
     path = Path(folder) / name
     path.write_text(TINY_WORLD)
     return path
+
+
+@dataclass
+class Result:
+    """What a command gave: its exit ``code``, and what it wrote to stdout (``out``) and stderr
+    (``err``)."""
+
+    code: int
+    out: str
+    err: str
+
+
+def invoke(*args: object) -> Result:
+    """``nbv-gym ARGS`` in this process, through the CLI's error boundary as the console script
+    runs it (exit codes, one-line messages); stdout and stderr captured."""
+    from nbv_gym.cli.main import app
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            app(args=[str(a) for a in args], prog_name="nbv-gym")
+            code = 0
+        except SystemExit as exit:
+            code = exit.code if isinstance(exit.code, int) else int(exit.code is not None)
+    return Result(code, out.getvalue(), err.getvalue())
 
 
 def run_cli(

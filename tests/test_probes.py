@@ -16,13 +16,12 @@ import os
 import re
 import shutil
 import textwrap
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from nbv_gym.cli.main import app
+from tests.helpers import Result, invoke
 
 TINY = """
 name = "tiny"
@@ -72,27 +71,9 @@ class CtrlC(Nearest):
 PROGRESS = re.compile(r"^step +\d+ |\d+/\d+ stages|their defaults are used|it/s|world/s|\|")
 
 
-@dataclass
-class Result:
-    code: int
-    out: str
-    err: str
-
-
 @pytest.fixture
-def cli(capsys):
+def cli():
     """Run ``nbv-gym ARGS`` in this process through the CLI's error boundary."""
-
-    def invoke(*args) -> Result:
-        capsys.readouterr()
-        try:
-            app(args=[str(a) for a in args], prog_name="nbv-gym")
-            code = 0
-        except SystemExit as exit:
-            code = exit.code if isinstance(exit.code, int) else int(exit.code is not None)
-        out, err = capsys.readouterr()
-        return Result(code, out, err)
-
     return invoke
 
 
@@ -142,22 +123,14 @@ def here(home, tmp_path, monkeypatch) -> Path:
     return tmp_path
 
 
-def _cli_once(*args) -> int:
-    try:
-        app(args=[str(a) for a in args], prog_name="nbv-gym")
-    except SystemExit as exit:
-        return exit.code or 0
-    return 0
-
-
 @pytest.fixture(scope="module")
 def finished_run(home) -> Path:
     """A finished run folder (`nbv-gym run` of the README's policy, 2 steps, from ``home``)."""
     previous = os.getcwd()
     os.chdir(home)
     try:
-        code = _cli_once("run", "--world", "tiny.toml", "--policy", "my_policy:Nearest",
-                         "--noise", "0", "--max-steps", "2", "--no-animation", "--out", "run")  # fmt: skip
+        code = invoke("run", "--world", "tiny.toml", "--policy", "my_policy:Nearest",
+                      "--noise", "0", "--max-steps", "2", "--no-animation", "--out", "run").code  # fmt: skip
     finally:
         os.chdir(previous)
     assert code == 0
@@ -185,8 +158,8 @@ def finished_sweep(home) -> Path:
     previous = os.getcwd()
     os.chdir(home)
     try:
-        code = _cli_once("sweep", "sweep.toml", "--out", "results", "--workers", "1",
-                         "--no-report", "--no-progress")  # fmt: skip
+        code = invoke("sweep", "sweep.toml", "--out", "results", "--workers", "1",
+                      "--no-report", "--no-progress").code  # fmt: skip
     finally:
         os.chdir(previous)
     assert code == 0

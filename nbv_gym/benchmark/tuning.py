@@ -28,13 +28,13 @@ GRID_SIZE = 5
 #: λ is per metre of path (the information-gain utility gain · exp(−λ · path)); α weighs the
 #: cost layer, path / 20 m (the NBV utility gain − α · cost).
 TUNABLE: dict[str, tuple[str, tuple[float, ...], float]] = {
-    "ig-unknown": ("lam", (0.02, 0.05, 0.1, 0.25, 0.5), 0.5),
-    "ig-entropy": ("lam", (0.02, 0.05, 0.1, 0.25, 0.5), 0.5),
+    "ig-unknown": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
+    "ig-entropy": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
     "nbv-nobs": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
     "nbv-rmin": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
     "nbv-nomega": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
     "nbv-sigma": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
-    "oracle-greedy": ("lam", (0.02, 0.05, 0.1, 0.25, 0.5), 0.5),
+    "oracle-greedy": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
 }
 
 

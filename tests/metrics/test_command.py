@@ -1,4 +1,4 @@
-"""``nbv-gym evaluate`` on synthetic arrays and point clouds, through a tiny Typer app."""
+"""``nbv-gym evaluate`` on synthetic arrays and point clouds, through the CLI as a user runs it."""
 
 from __future__ import annotations
 
@@ -7,17 +7,10 @@ import json
 
 import numpy as np
 import pytest
-import typer
-from typer.testing import CliRunner
 
-from nbv_gym.cli.evaluate import evaluate
 from nbv_gym.core.pointclouds import write_points
-from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.cuboids import benchmark_grid
-
-app = typer.Typer()
-app.command()(evaluate)
-runner = CliRunner()
+from tests.helpers import invoke
 
 
 @pytest.fixture(scope="module")
@@ -32,13 +25,10 @@ def perfect_map(tmp_path_factory):
 
 def test_map_mode_writes_csv_summary_and_heat_map(perfect_map, tmp_path):
     out = tmp_path / "eval"
-    result = runner.invoke(
-        app,
-        ["--map", str(perfect_map / "prob.npy"), "--ground-truth", str(perfect_map / "gt.npy"),
-         "--out", str(out), "--json"],
-    )  # fmt: skip
-    assert result.exit_code == 0, result.output
-    summary = json.loads(result.stdout)  # progress goes to stderr
+    result = invoke("evaluate", "--map", perfect_map / "prob.npy",
+                    "--ground-truth", perfect_map / "gt.npy", "--out", out, "--json")  # fmt: skip
+    assert result.code == 0, result.err
+    summary = json.loads(result.out)  # progress goes to stderr
     assert summary["q"] == 1.0 and summary["cov_p0.7_d0.15"] == 1.0 and summary["n_occ"] == 2
     assert summary["wd_occ_max"] < 1.0
     assert json.loads((out / "summary.json").read_text())["q"] == 1.0
@@ -53,26 +43,22 @@ def test_cloud_mode_prints_the_empir3d_table(tmp_path):
     cloud = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
     write_points(tmp_path / "ref.ply", cloud)
     write_points(tmp_path / "cand.xyz", cloud + [0, 0, 0.03])
-    result = runner.invoke(
-        app, [str(tmp_path / "ref.ply"), str(tmp_path / "cand.xyz"), "--json", "--region", "0.5"]
+    result = invoke(
+        "evaluate", tmp_path / "ref.ply", tmp_path / "cand.xyz", "--json", "--region", 0.5
     )
-    assert result.exit_code == 0, result.output
-    scores = json.loads(result.output)
+    assert result.code == 0, result.err
+    scores = json.loads(result.out)
     assert scores["q_a"] == pytest.approx(0.7) and scores["q_t"] == 1.0
-    text = runner.invoke(app, [str(tmp_path / "ref.ply"), str(tmp_path / "cand.xyz")]).output
+    text = invoke("evaluate", tmp_path / "ref.ply", tmp_path / "cand.xyz").out
     assert "q_r" in text and "hausdorff_m" in text
 
 
 def test_errors_name_the_file_and_the_problem(perfect_map, tmp_path):
     np.save(tmp_path / "small.npy", np.zeros((10, 10, 10), np.float32))
-    result = runner.invoke(
-        app, ["--map", str(tmp_path / "small.npy"), "--ground-truth", str(perfect_map / "gt.npy")]
-    )
-    assert isinstance(result.exception, MetricInputError)
-    assert "small.npy: expected a float probability grid of shape (600, 600, 60)" in str(
-        result.exception
-    )
-    result = runner.invoke(app, [str(tmp_path / "none.ply"), str(tmp_path / "none.pcd")])
-    assert "none.ply: the point-cloud file does not exist" in str(result.exception)
-    result = runner.invoke(app, [])
-    assert "nothing to evaluate" in str(result.exception)
+    result = invoke("evaluate", "--map", tmp_path / "small.npy",
+                    "--ground-truth", perfect_map / "gt.npy")  # fmt: skip
+    assert result.code == 2
+    assert "small.npy: expected a float probability grid of shape (600, 600, 60)" in result.err
+    result = invoke("evaluate", tmp_path / "none.ply", tmp_path / "none.pcd")
+    assert "none.ply: the point-cloud file does not exist" in result.err
+    assert "nothing to evaluate" in invoke("evaluate").err

@@ -114,7 +114,7 @@ def check_nbv_gym(tokens: list[str], written: set[str]) -> None:  # noqa: C901 (
             if getattr(parameter, "is_flag", False) or getattr(parameter, "count", False):
                 continue
             value = inline or rest.pop(0)
-            if flag == "--world":
+            if flag == "--world" and value not in written:
                 check_world(value)
             elif flag == "--policy":
                 check_policy(value)
@@ -154,8 +154,8 @@ def check_line(line: str, written: set[str]) -> None:
 
 def written_files(text: str) -> set[str]:
     """Files an example of the page writes: ``nbv-gym configs copy NAME DEST`` (DEST a file, or
-    a folder that receives NAME's file)."""
-    written = set()
+    a folder that receives NAME's file) and ``nbv-gym worlds import FILE --out SPEC``."""
+    written = set(re.findall(r"nbv-gym worlds import \S+ --out (\S+)", text))
     for name, dest in re.findall(r"nbv-gym configs copy (\S+) (\S+)", text):
         suffix = (
             ".yml"

@@ -293,7 +293,7 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
         poi = improvements.get(entry.label)
         rows.append([
             rank,
-            entry.label + (" *" if mixed and not entry.reference else ""),
+            printable(entry.label) + (" *" if mixed and not entry.reference else ""),
             interval_text(test["all"], "iqm") if test else "—",
             "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]",
         ])  # fmt: skip

@@ -143,7 +143,8 @@ def test_a_policy_name_cannot_inject_rows_or_markup(tiny_suite, tmp_path, name):
     path = tmp_path / "scorecard.json"
     path.write_text(dumps_strict(card(tiny_suite, name, 0.5)))
     (tmp_path / "honest.json").write_text(dumps_strict(honest))
-    markdown, html = build_leaderboard([path, tmp_path / "honest.json"], False, tmp_path / "b")
+    board = build_leaderboard([path, tmp_path / "honest.json"], False, tmp_path / "b")
+    markdown, html = board.markdown, board.html
     text = markdown.read_text()
     rows = [line for line in text.splitlines() if line.startswith("| ")]
     assert len(rows) == 2 * 3  # two tables: a header and two policies each

@@ -25,7 +25,7 @@ def test_a_cold_sweep_logged_to_a_file_names_its_phases_without_carriage_returns
         )  # fmt: skip
     text = (tmp_path / "log.txt").read_text()
     assert done.returncode == 0, text
-    assert "building world pp1-cuboids (mesh + ground truth), once per spec" in text
+    assert "building world pp1-cuboids (mesh + ground truth), once per content" in text
     assert "world pp1-cuboids built in" in text
     assert "building the report of out" in text and "report built in" in text
     assert "tiny: 100%" in text and "1/1" in text  # the progress line, written once at the end

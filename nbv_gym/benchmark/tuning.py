@@ -24,16 +24,20 @@ from nbv_gym.core.protocol import TIME_BUDGET_S, check_noise_level
 
 #: Values per tuned parameter: every policy is tuned on this many values.
 GRID_SIZE = 5
+#: α of the nbv-* policies: their gain layers count hundreds to thousands (the statistic's gain
+#: summed over the cells a view would see) while the cost layer is about 0–2, so α spans the
+#: gains' scale (a first grid of 0.5–8 changed no decision).
+ALPHA_GRID = (2.0, 20.0, 200.0, 2000.0, 20000.0)
 #: The tunable references: (constructor keyword, the grid of values, the shipped default).
 #: λ is per metre of path (the information-gain utility gain · exp(−λ · path)); α weighs the
 #: cost layer, path / 20 m (the NBV utility gain − α · cost).
 TUNABLE: dict[str, tuple[str, tuple[float, ...], float]] = {
     "ig-unknown": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
     "ig-entropy": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
-    "nbv-nobs": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
-    "nbv-rmin": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
-    "nbv-nomega": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
-    "nbv-sigma": ("alpha", (0.5, 1.0, 2.0, 4.0, 8.0), 2.0),
+    "nbv-nobs": ("alpha", ALPHA_GRID, 2.0),
+    "nbv-rmin": ("alpha", ALPHA_GRID, 2.0),
+    "nbv-nomega": ("alpha", ALPHA_GRID, 2.0),
+    "nbv-sigma": ("alpha", ALPHA_GRID, 2.0),
     "oracle-greedy": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
 }
 

@@ -21,9 +21,13 @@ from nbv_gym.benchmark.curves import area_under
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import UnknownNameError
 from nbv_gym.core.protocol import TIME_BUDGET_S, check_noise_level
+from nbv_gym.policies.information_gain import DEFAULT_LAMBDA
+from nbv_gym.policies.nbv import DEFAULT_ALPHA
 
 #: Values per tuned parameter: every policy is tuned on this many values.
 GRID_SIZE = 5
+#: λ of the information-gain policies, per metre (a first grid of 0.02–0.5 peaked at its edge).
+LAMBDA_GRID = (0.1, 0.25, 0.5, 1.0, 2.0)
 #: α of the nbv-* policies: their gain layers count hundreds to thousands (the statistic's gain
 #: summed over the cells a view would see) while the cost layer is about 0–2, so α spans the
 #: gains' scale (a first grid of 0.5–8 changed no decision).
@@ -32,13 +36,13 @@ ALPHA_GRID = (2.0, 20.0, 200.0, 2000.0, 20000.0)
 #: λ is per metre of path (the information-gain utility gain · exp(−λ · path)); α weighs the
 #: cost layer, path / 20 m (the NBV utility gain − α · cost).
 TUNABLE: dict[str, tuple[str, tuple[float, ...], float]] = {
-    "ig-unknown": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
-    "ig-entropy": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
-    "nbv-nobs": ("alpha", ALPHA_GRID, 2.0),
-    "nbv-rmin": ("alpha", ALPHA_GRID, 2.0),
-    "nbv-nomega": ("alpha", ALPHA_GRID, 2.0),
-    "nbv-sigma": ("alpha", ALPHA_GRID, 2.0),
-    "oracle-greedy": ("lam", (0.1, 0.25, 0.5, 1.0, 2.0), 0.5),
+    "ig-unknown": ("lam", LAMBDA_GRID, DEFAULT_LAMBDA),
+    "ig-entropy": ("lam", LAMBDA_GRID, DEFAULT_LAMBDA),
+    "nbv-nobs": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
+    "nbv-rmin": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
+    "nbv-nomega": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
+    "nbv-sigma": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
+    "oracle-greedy": ("lam", LAMBDA_GRID, DEFAULT_LAMBDA),
 }
 
 

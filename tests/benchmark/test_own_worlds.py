@@ -1,4 +1,4 @@
-"""``nbv-gym score --world SPEC``: a suite's parts on the benchmark worlds run on your own, a suite
+"""``nbv-gym score --world WORLD.toml``: a suite's parts on the benchmark worlds run on your own, a suite
 of its own (its scorecards rank apart from the benchmark's)."""
 
 from __future__ import annotations

@@ -19,22 +19,31 @@ from nbv_gym.mapping.probability import probabilities_in_place
 from nbv_gym.mapping.store import KNOWN_ZERO, is_known
 
 
+@njit(inline="always")
+def _cell_voxels(offset, cells, c, f, dims):
+    """The map voxels coarse cell ``cells[c]`` (``f`` voxels a side, the grid's first voxel at
+    map voxel ``offset``) covers: its first voxel (x0, y0, z0) and, per axis, the range [lo, hi)
+    of its voxels inside the map (``dims[2:5]`` voxels). Inlined: no call, no reference count."""
+    x0 = offset[0] + cells[c, 0] * f
+    y0 = offset[1] + cells[c, 1] * f
+    z0 = offset[2] + cells[c, 2] * f
+    return (x0, y0, z0, max(0, -x0), min(f, dims[2] - x0), max(0, -y0), min(f, dims[3] - y0),
+            max(0, -z0), min(f, dims[4] - z0))  # fmt: skip
+
+
 @njit(cache=True)
 def gather_logodds(store, x_offset, y_offset, z_offset, dims, offset, cells, out):
     """Fill ``out`` (k, f, f, f) with the log-odds (NaN = unknown, also outside the map) of
     ``cells`` (coarse indices) from the bricked ``store`` (voxel (a, b, k) at ``x_offset[a] +
     y_offset[b] + z_offset[k]``)."""
-    nx, ny, nz = dims[2], dims[3], dims[4]
     f = out.shape[1]
     out[:] = np.nan
     for c in range(cells.shape[0]):
-        x0 = offset[0] + cells[c, 0] * f
-        y0 = offset[1] + cells[c, 1] * f
-        z0 = offset[2] + cells[c, 2] * f
-        for a in range(max(0, -x0), min(f, nx - x0)):
-            for b in range(max(0, -y0), min(f, ny - y0)):
+        x0, y0, z0, a0, a1, b0, b1, d0, d1 = _cell_voxels(offset, cells, c, f, dims)
+        for a in range(a0, a1):
+            for b in range(b0, b1):
                 column = x_offset[x0 + a] + y_offset[y0 + b]
-                for d in range(max(0, -z0), min(f, nz - z0)):
+                for d in range(d0, d1):
                     value = store[column + z_offset[z0 + d]]
                     if is_known(value):
                         out[c, a, b, d] = value if value != KNOWN_ZERO else np.float32(0.0)
@@ -44,16 +53,13 @@ def gather_logodds(store, x_offset, y_offset, z_offset, dims, offset, cells, out
 def mark_reaching(store, x_offset, y_offset, z_offset, dims, offset, cells, f, logodds, out):
     """Set ``out[c]`` iff coarse cell ``cells[c]`` (``f`` voxels a side) holds a known voxel
     of log-odds ≥ ``logodds`` (float32; :data:`KNOWN_ZERO` read as 0)."""
-    nx, ny, nz = dims[2], dims[3], dims[4]
     zero = np.float32(0.0)
     for c in range(cells.shape[0]):
-        x0 = offset[0] + cells[c, 0] * f
-        y0 = offset[1] + cells[c, 1] * f
-        z0 = offset[2] + cells[c, 2] * f
-        for a in range(max(0, -x0), min(f, nx - x0)):
-            for b in range(max(0, -y0), min(f, ny - y0)):
+        x0, y0, z0, a0, a1, b0, b1, d0, d1 = _cell_voxels(offset, cells, c, f, dims)
+        for a in range(a0, a1):
+            for b in range(b0, b1):
                 column = x_offset[x0 + a] + y_offset[y0 + b]
-                for d in range(max(0, -z0), min(f, nz - z0)):
+                for d in range(d0, d1):
                     value = store[column + z_offset[z0 + d]]
                     if is_known(value) and (zero if value == KNOWN_ZERO else value) >= logodds:
                         out[c] = True
@@ -68,20 +74,17 @@ def mark_reaching(store, x_offset, y_offset, z_offset, dims, offset, cells, f, l
 def gather_levels(store, x_offset, y_offset, z_offset, dims, offset, cells, bounds, out):
     """Fill ``out`` (k, f, f, f) uint32 with the bitmask of the ``bounds`` each voxel's
     log-odds reaches (unknown and outside the map: log-odds 0) for the coarse ``cells``."""
-    nx, ny, nz = dims[2], dims[3], dims[4]
     f = out.shape[1]
     unknown = np.uint32(0)  # the stored value of an unknown voxel is 0 too
     for s in range(bounds.shape[0]):
         unknown |= np.uint32(bounds[s] <= 0.0) << np.uint32(s)
     out[:] = unknown
     for c in range(cells.shape[0]):
-        x0 = offset[0] + cells[c, 0] * f
-        y0 = offset[1] + cells[c, 1] * f
-        z0 = offset[2] + cells[c, 2] * f
-        for a in range(max(0, -x0), min(f, nx - x0)):
-            for b in range(max(0, -y0), min(f, ny - y0)):
+        x0, y0, z0, a0, a1, b0, b1, d0, d1 = _cell_voxels(offset, cells, c, f, dims)
+        for a in range(a0, a1):
+            for b in range(b0, b1):
                 column = x_offset[x0 + a] + y_offset[y0 + b]
-                for d in range(max(0, -z0), min(f, nz - z0)):
+                for d in range(d0, d1):
                     value = store[column + z_offset[z0 + d]]  # KNOWN_ZERO compares like 0
                     level = np.uint32(0)
                     for s in range(bounds.shape[0]):

@@ -283,7 +283,12 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
     best = baseline(entries)
     improvements = improvements_over_baseline(entries) if improvements is None else improvements
     mixed = any(e.reference for e in entries) and not all(e.reference for e in entries)
-    header = ["rank", "policy", SPLIT_COLUMNS[RANK_SPLIT], f"P(better than {best.label})"]
+    header = [
+        "rank",
+        "policy",
+        SPLIT_COLUMNS[RANK_SPLIT],
+        f"P(better than {best.label}, equal time)",
+    ]
     rows = [header]
     for rank, entry in [
         *((str(i + 1), e) for i, e in enumerate(players)),
@@ -392,7 +397,7 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
         "rank",
         "policy",
         *SPLIT_COLUMNS.values(),
-        f"P(better than {markdown_text(best.label)})",
+        f"P(better than {markdown_text(best.label)}, equal time)",
     ]
     effort = ["rank", "policy", "Q at the budget", *(f"Q at {d:g} m" for d in MATCHED_PATHS_M),
               "path (m)", "time (s)", "Pareto (Q, path)", "decision (ms/step)"]  # fmt: skip
@@ -407,7 +412,7 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
                 ],
             ),
             "Effort behind the score (time task, test split; IQM [95 % interval] and means per "
-            "run; Pareto: dominated by a policy with as high a mean Q at the budget for as short "
+            "run; Pareto: dominated by a policy with as high an IQM of Q at the budget for as short "
             "a mean path, one strictly):",
             markdown_table(
                 effort,
@@ -418,13 +423,13 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
 
 
 def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
-    """Entry label → the label of an entry that dominates it on (mean Q at the time budget,
-    mean path) of the ranking split: Q ≥ and path ≤, one of them strictly. Entries without
-    those figures are left out."""
+    """Entry label → the label of an entry that dominates it on (IQM of Q at the time budget,
+    mean path) of the ranking split, the figures the effort table shows: Q ≥ and path ≤, one of
+    them strictly. Entries without those figures are left out."""
     points = {}
     for entry in entries:
         means = entry.card["aggregates"].get(RANK_SPLIT, {}).get("means", {})
-        q, path = means.get("q"), means.get("path_length_m")
+        q, path = entry.effort().get("q_at_budget", {}).get("iqm"), means.get("path_length_m")
         if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
             points[entry.label] = (q, path)
     out = {}
@@ -446,7 +451,7 @@ def _legend(best: Entry) -> str:
         "teleports), the paper's protocol Q_paper at 70 % discovered; neither charges travel. "
         "[brackets]: 95 % intervals, stratified "
         "bootstrap (runs resampled within each world × noise level). "
-        f"P(better than {markdown_text(best.label)}): the probability that a run of the policy scores higher than a run of "
+        f"P(better than {markdown_text(best.label)}, equal time): the probability that a run of the policy has a higher area under Q(t) over the time budget than a run of "
         f"{whom} on the same test world and noise level (ties ½); 0.5 = no difference. "
         "Decision time: the policy's `act`, mean per step. **Bold**: scorecards given on the "
         "command line; the others are the shipped references."

@@ -113,9 +113,9 @@ def write_world_specs(suite: Suite, folder: Path) -> dict[str, str]:
 
 def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
     """The :class:`~nbv_gym.sweep.config.SweepConfig` of ``part`` for ``policy``."""
-    from nbv_gym.sweep.config import SweepConfig
+    from nbv_gym.sweep.config import SweepConfig, with_lidar
 
-    return SweepConfig(
+    config = SweepConfig(
         name=f"{suite.name}-{part.split}",
         worlds=tuple(sources[name] for name in part.world_names),
         noise=part.noise,
@@ -126,15 +126,8 @@ def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
         task=part.task,
         budget_scans=part.budget_scans,
         time_budget_s=part.time_budget_s,
-        env=_lidar_env(part.lidar),
     )
-
-
-def _lidar_env(lidar: str) -> dict[str, Any]:
-    """The ``[env]`` table of a part run with the lidar preset ``lidar`` (none for the default)."""
-    from nbv_gym.sensor.presets import DEFAULT_LIDAR, beam_pattern
-
-    return {} if lidar == DEFAULT_LIDAR else {"simulator": {"lidar": beam_pattern(lidar)}}
+    return with_lidar(config, part.lidar)
 
 
 def part_runs(

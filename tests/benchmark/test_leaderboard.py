@@ -113,7 +113,7 @@ def test_leaderboard_writes_markdown_html_and_profiles(tiny_suite, tmp_path):
     text = markdown.read_text()
     assert text.index("| 1 | **`b`**") < text.index("| 2 | **`a`**")
     assert "## Oracles (ranked apart)" in text and "| oracle | **`peek:Oracle`**" in text
-    assert "P(better than b)" in text and "0.00 [0.00, 0.00]" in text
+    assert "P(better than b, equal time)" in text and "0.00 [0.00, 0.00]" in text
     assert html.name == "leaderboard.html" and "<table>" in html.read_text()
     assert (tmp_path / "board" / "profiles.png").stat().st_size > 0
     assert "data:image/svg+xml;base64" in html.read_text()  # the figure travels with the page

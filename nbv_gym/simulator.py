@@ -359,8 +359,7 @@ class Simulator:
         if not np.isfinite(path_m):
             return "it is not known free space reachable from the robot"
         if path_m > navigation.reach_m:
-            effort = self.config.episode.effort
-            cost = path_m / effort.speed_mps + effort.scan_time_s
+            cost = self.config.episode.effort.elapsed_s(path_m, 1)
             return (
                 f"driving there and scanning takes {cost:.1f} s, {self.remaining_s:.1f} s are left"
             )

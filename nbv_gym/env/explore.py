@@ -356,7 +356,7 @@ def _resolve(
             f"or no time budget, got task={task!r}"
         )
     episode = resolved.simulator.episode
-    episode = task_episode(task, episode, None if task == "time" else max_steps)
+    episode = task_episode(task, episode)
     if max_steps is not None:
         episode = replace(episode, max_steps=max_steps)
     return replace(resolved, simulator=replace(resolved.simulator, episode=episode))

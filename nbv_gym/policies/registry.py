@@ -91,7 +91,7 @@ def load_policy(name: str, **kwargs: Any) -> Policy:
     if at and base in POLICIES:
         cls = _import_class(POLICIES[base], base)
         parameter = getattr(cls, "variant_parameter", "visibility")
-        if parameter not in inspect.signature(cls).parameters:
+        if not _has_variant(cls):
             with_variants = sorted(
                 n for n, t in POLICIES.items() if _has_variant(_import_class(t, n))
             )

@@ -13,7 +13,7 @@ from scipy.sparse.csgraph import dijkstra
 
 import nbv_gym  # noqa: F401  (registers the environments)
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.protocol import SCAN_TIME_S, SPEED_MPS, TIME_BUDGET_S, TIME_ID, EffortModel
+from nbv_gym.core.protocol import SCAN_TIME_S, SPEED_MPS, TIME_BUDGET_S, TIME_ID
 from nbv_gym.env import ExploreEnv
 from nbv_gym.mapping.navigation import NavigationConfig
 
@@ -124,8 +124,7 @@ def test_defaults_and_refusals():
     assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (
         TIME_BUDGET_S, SPEED_MPS, SCAN_TIME_S)  # fmt: skip
     assert episode.discovered_target is None
-    cap = EffortModel().scan_cap(TIME_BUDGET_S)
-    assert episode.max_steps == cap and cap * SCAN_TIME_S > TIME_BUDGET_S  # never binds
+    assert episode.max_steps == 61 and 61 * SCAN_TIME_S > TIME_BUDGET_S  # a cap that never binds
     with pytest.raises(ConfigError, match="time_budget_s is the time task's budget"):
         ExploreEnv(task="budget", world=WORLD, time_budget_s=100.0)
     with pytest.raises(ConfigError, match="speed_mps: must be > 0"):

@@ -29,7 +29,6 @@ def test_distribution_draws_and_snapping_reaches_the_learner():
 
 
 def test_the_time_task_trains_under_its_budget_and_effort_model():
-    from nbv_gym.core.protocol import EffortModel
     from nbv_gym.rl.config import TrainConfig
 
     config = TrainConfig(task="time", time_budget_s=120.0, speed_mps=0.5, scan_time_s=5.0)
@@ -38,6 +37,6 @@ def test_the_time_task_trains_under_its_budget_and_effort_model():
     env = WorldCycleEnv(("pp1-cuboids",), task="time", max_steps=None, effort=config.effort())
     episode = env.env.config.simulator.episode
     assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (120.0, 0.5, 5.0)
-    assert episode.max_steps == EffortModel(0.5, 5.0).scan_cap(120.0)
+    assert episode.max_steps == 25  # 120 s / 5 s per scan, + 1
     _, info = env.reset(seed=0)
     assert info["remaining_s"] == 120.0

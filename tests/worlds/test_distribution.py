@@ -59,7 +59,8 @@ def test_unknown_distribution_suggests_the_near_miss():
         ExploreEnv(world="random:cuboids", world_pool_size=0)
 
 
-def test_resets_draw_seeded_worlds_from_a_bounded_pool():
+def test_resets_draw_seeded_worlds_from_a_bounded_pool(tmp_path, monkeypatch):
+    monkeypatch.setenv("NBV_GYM_CACHE", str(tmp_path))  # other workers cache other pool members
     env = ExploreEnv(world="random:cuboids", world_pool_size=POOL, max_steps=2)
     drawn = {seed: first_scan(env, seed) for seed in range(8)}
     worlds = {world for world, _ in drawn.values()}

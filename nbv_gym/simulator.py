@@ -102,7 +102,8 @@ class SimulatorConfig:
 class StepOutcome:
     """What a reset or a step produced.
 
-    ``quality`` is the map quality after the scan; ``reward`` = ``delta_q`` − path penalty;
+    ``quality`` is the map quality after the scan; ``reward`` = ``delta_q`` (weighted by the
+    share of the budget left in the time task) − path penalty;
     ``path_length_m`` the length of this step's path; ``terminated``/``truncated`` as in
     Gymnasium, with ``reason`` saying why the episode ended ("" while it runs); ``touched``
     (nx, ny, nz) bool the cells of G whose map voxels the scan changed.
@@ -296,7 +297,7 @@ class Simulator:
         before = self.summary
         self.summary = self._update_quality(update.touched_cells)
         delta_q = self.summary.q - before.q
-        reward = delta_q - self.config.episode.path_penalty_per_m * path_length_m
+        reward = self._reward(delta_q, path_length_m)
         discovered = state.navigation.discovered_fraction
         terminated, truncated, reason = self._end(discovered)
         return StepOutcome(
@@ -311,6 +312,14 @@ class Simulator:
             truncated,
             reason,
         )
+
+    def _reward(self, delta_q: float, path_length_m: float) -> float:
+        """ΔQ, weighted in the time task by the share of the budget left (the robot holds the
+        gain that long: an episode's rewards, the first scan's included, sum to its area under
+        Q(t) over the budget), minus the path penalty."""
+        episode = self.config.episode
+        held = 1.0 if episode.time_budget_s is None else self.remaining_s / episode.time_budget_s
+        return delta_q * held - episode.path_penalty_per_m * path_length_m
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
         state = self._live

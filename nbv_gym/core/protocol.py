@@ -124,7 +124,8 @@ class EpisodeConfig:
     overrun the remaining time is not valid, so the episode ends when the budget is spent.
     Time is charged by the effort model (:class:`EffortModel`) of
     ``speed_mps`` and ``scan_time_s``, in every task. Reward = ΔQ − ``path_penalty_per_m`` · path
-    length of the step. The robot starts at ``start_xy_m`` heading ``start_yaw_rad``.
+    length of the step, ΔQ weighted in the time task by the share of the budget left after it
+    (the rewards then sum to the area under Q(t) over the budget). The robot starts at ``start_xy_m`` heading ``start_yaw_rad``.
     """
 
     max_steps: int = EXPLORE_MAX_STEPS

@@ -115,7 +115,8 @@ class GoalSpace(spaces.Discrete):
 
 
 class ExploreEnv(gymnasium.Env):
-    """Explore a world with a teleporting lidar robot; reward = improvement of map quality Q.
+    """Explore a world with a teleporting lidar robot; reward = improvement of map quality Q
+    (in the time task weighted by the share of the budget left: the return is the area under Q(t)).
 
     Args:
         render_mode: None or "rgb_array".

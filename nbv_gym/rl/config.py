@@ -110,6 +110,10 @@ class TrainConfig:
       (``tcp://…``, ``tls://…`` with Dask's TLS settings): one actor per worker holds that
       worker's share of the ``n_envs`` environments (:mod:`nbv_gym.rl.daskvec`); the learner
       stays in the calling process.
+    - ``init_model``: a trained model (a shipped name such as ``ppo-budget``, or a model zip)
+      whose network weights a new training starts from — the same algorithm, network and
+      observation layers, another task or budget allowed; the step count, the optimiser and the
+      input scaling of the observation's bounds are the new run's. ``""``: random weights.
     """
 
     algorithm: str = "MaskablePPO"
@@ -138,6 +142,7 @@ class TrainConfig:
     device: str = "cpu"
     torch_threads: int = 0
     scheduler: str = ""
+    init_model: str = ""
 
     def __post_init__(self) -> None:
         check(

@@ -333,7 +333,10 @@ def _create(config: TrainConfig, envs, verbose: int):
 
 def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbose: int):
     if resume is None:
-        return _create(config, envs, verbose)
+        model = _create(config, envs, verbose)
+        if config.init_model:
+            _start_from(model, config)
+        return model
     from nbv_gym.rl.modelfile import check_model_file, describe_model
 
     check_model_file(Path(resume))
@@ -351,6 +354,34 @@ def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbos
             f"Cannot resume {config.algorithm} from {str(resume)!r}: {error}. Resume with the "
             "config (algorithm, n_envs, observation_layers) the checkpoint was trained with."
         ) from None
+
+
+def _start_from(model, config: TrainConfig) -> None:
+    """Copy the network weights of ``config.init_model`` into the new ``model`` (its buffers —
+    the input scaling of this run's observation bounds — stay); :class:`ConfigError` when the
+    networks differ."""
+    from nbv_gym.policies import MODELS, model_path
+    from nbv_gym.rl.agent import load_model
+
+    name = config.init_model
+    path = model_path(name) if name in MODELS else Path(name)
+    source = load_model(path, device=config.device)
+    if type(source) is not type(model):
+        raise ConfigError(
+            f"init_model: {name!r} is a {type(source).__name__}, this run a {config.algorithm}"
+        )
+    buffers = {key for key, _ in model.policy.named_buffers(remove_duplicate=False)}
+    weights = {k: v for k, v in source.policy.state_dict().items() if k not in buffers}
+    try:
+        keys = model.policy.load_state_dict(weights, strict=False)
+        differ = [*keys.unexpected_keys, *(set(keys.missing_keys) - buffers)]
+    except RuntimeError as error:
+        differ = [str(error).splitlines()[0]]
+    if differ:
+        raise ConfigError(
+            f"init_model: {name!r} has another network than this run's (network, "
+            f"features_dim, observation_layers): {', '.join(map(str, differ[:3]))}"
+        )
 
 
 def _logger(out: Path, verbose: int):

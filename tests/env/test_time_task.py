@@ -25,18 +25,19 @@ RANGE_M = NavigationConfig().cost_range_m
 
 
 def random_episode(seed: int = 3, **kwargs):
-    """(observation, info, env) after reset and after every step of a random masked episode on
-    the time task with :data:`SPEED`, :data:`SCAN` and :data:`BUDGET`."""
+    """(observation, info, reward, (terminated, truncated), env) after reset (reward None) and
+    after every step of a random masked episode on the time task with :data:`SPEED`,
+    :data:`SCAN` and :data:`BUDGET`."""
     env = gymnasium.make(
         TIME_ID, world=WORLD, time_budget_s=BUDGET, speed_mps=SPEED, scan_time_s=SCAN, **kwargs
     )
     rng = np.random.default_rng(seed)
     observation, info = env.reset(seed=seed)
-    yield observation, info, (False, False), env.unwrapped
+    yield observation, info, None, (False, False), env.unwrapped
     while True:
         goal = int(rng.choice(np.flatnonzero(info["action_mask"])))
-        observation, _, terminated, truncated, info = env.step(goal)
-        yield observation, info, (terminated, truncated), env.unwrapped
+        observation, reward, terminated, truncated, info = env.step(goal)
+        yield observation, info, reward, (terminated, truncated), env.unwrapped
         if terminated or truncated:
             return
 
@@ -52,11 +53,11 @@ def episode() -> list[dict]:
     navigation layer: each goal's drive + scan time (s), the goals valid without the time
     limit, the cells the path search may cross, the robot's nav cell and the goals' nav cells."""
     steps = []
-    for obs, info, end, env in random_episode():
+    for obs, info, reward, end, env in random_episode():
         nav = env.sim.navigation
         i, j = nav.grid.index([[*nav.robot_xy, nav.grid.origin[2]]])[0, :2]
         steps.append({
-            "obs": obs, "info": info, "end": end, "cost_s": goal_time_s(env),
+            "obs": obs, "info": info, "reward": reward, "end": end, "cost_s": goal_time_s(env),
             "reachable": nav.goal_mask(limited=False).copy(),
             "passable": nav._passable((int(i), int(j))), "robot": (int(i), int(j)),
             "goal_cells": nav._goal_cells, "space": env.observation_space,
@@ -72,6 +73,15 @@ def test_elapsed_time_is_path_over_speed_plus_scans_times_scan_time(episode):
         assert abs(info["elapsed_s"] - expected) <= 1e-9
         assert abs(info["remaining_s"] - (BUDGET - expected)) <= 1e-9
     assert episode[0]["info"]["elapsed_s"] == 0.0  # the first scan starts the clock
+
+
+def test_the_rewards_sum_to_the_area_under_q_over_the_budget(episode):
+    q = np.array([step["info"]["q"] for step in episode])
+    ends = [step["info"]["elapsed_s"] for step in episode]
+    held_s = np.diff([*ends, BUDGET])  # each scan's Q is held until the next scan ends
+    area = float(q @ held_s) / BUDGET
+    assert q[0] + sum(step["reward"] for step in episode[1:]) == pytest.approx(area, abs=1e-12)
+    assert all(s["reward"] < s["info"]["delta_q"] for s in episode[1:] if s["info"]["delta_q"] > 0)
 
 
 def test_the_valid_goals_are_the_reachable_goals_that_fit_in_the_remaining_time(episode):

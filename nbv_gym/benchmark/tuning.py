@@ -21,8 +21,6 @@ from nbv_gym.benchmark.curves import area_under
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import UnknownNameError
 from nbv_gym.core.protocol import TIME_BUDGET_S, check_noise_level
-from nbv_gym.policies.information_gain import DEFAULT_LAMBDA
-from nbv_gym.policies.nbv import DEFAULT_ALPHA
 
 #: Values per tuned parameter: every policy is tuned on this many values.
 GRID_SIZE = 5
@@ -32,17 +30,19 @@ LAMBDA_GRID = (0.1, 0.25, 0.5, 1.0, 2.0)
 #: summed over the cells a view would see) while the cost layer is about 0–2, so α spans the
 #: gains' scale (a first grid of 0.5–8 changed no decision).
 ALPHA_GRID = (2.0, 20.0, 200.0, 2000.0, 20000.0)
-#: The tunable references: (constructor keyword, the grid of values, the shipped default).
+#: The tunable references: (constructor keyword, the grid of values); the chosen values are the
+#: time task's defaults (``DEFAULT_LAMBDA`` of the ``ig-*`` policies and ``oracle-greedy``,
+#: ``TIME_ALPHA`` of the ``nbv-*`` policies).
 #: λ is per metre of path (the information-gain utility gain · exp(−λ · path)); α weighs the
 #: cost layer, path / 20 m (the NBV utility gain − α · cost).
-TUNABLE: dict[str, tuple[str, tuple[float, ...], float]] = {
-    "ig-unknown": ("lam", LAMBDA_GRID, DEFAULT_LAMBDA),
-    "ig-entropy": ("lam", LAMBDA_GRID, DEFAULT_LAMBDA),
-    "nbv-nobs": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
-    "nbv-rmin": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
-    "nbv-nomega": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
-    "nbv-sigma": ("alpha", ALPHA_GRID, DEFAULT_ALPHA),
-    "oracle-greedy": ("lam", LAMBDA_GRID, DEFAULT_LAMBDA),
+TUNABLE: dict[str, tuple[str, tuple[float, ...]]] = {
+    "ig-unknown": ("lam", LAMBDA_GRID),
+    "ig-entropy": ("lam", LAMBDA_GRID),
+    "nbv-nobs": ("alpha", ALPHA_GRID),
+    "nbv-rmin": ("alpha", ALPHA_GRID),
+    "nbv-nomega": ("alpha", ALPHA_GRID),
+    "nbv-sigma": ("alpha", ALPHA_GRID),
+    "oracle-greedy": ("lam", LAMBDA_GRID),
 }
 
 
@@ -98,8 +98,8 @@ class Tuning:
         return rows
 
 
-def tunable(name: str) -> tuple[str, tuple[float, ...], float]:
-    """The (keyword, grid, default) of the reference ``name``; UnknownNameError otherwise."""
+def tunable(name: str) -> tuple[str, tuple[float, ...]]:
+    """The (keyword, grid) of the reference ``name``; UnknownNameError otherwise."""
     if name not in TUNABLE:
         raise UnknownNameError("tunable policy", name, TUNABLE)
     return TUNABLE[name]
@@ -111,7 +111,7 @@ def tune(
     """Score the reference ``name`` at each value of its grid (:data:`TUNABLE`) on the same
     ``config.episodes`` episodes of the time task; the scores per value."""
     config = config or TuningConfig()
-    parameter, grid, _ = tunable(name)
+    parameter, grid = tunable(name)
     result = Tuning(name, parameter, config)
     for value in grid:
         result.scores[value] = [episode_score(name, {parameter: value}, config, i)

@@ -3,7 +3,12 @@
 ``nbv-nobs``, ``nbv-rmin``, ``nbv-nomega`` and ``nbv-sigma`` choose, among the candidates (valid
 goals within the search range, layer ``nbv_candidates``), the goal maximising the utility
 E[I(a_T)] − α · cost(a_T), with E[I] the predicted gain of one viewpoint statistic (layer
-``gain_<statistic>``) and cost = min(path length / search range, 1) (layer ``cost``).
+``gain_<statistic>``) and cost = path length / search range (layer ``cost``; clipped at 1 but in
+the time task).
+
+α is the paper's 2 (:data:`PAPER_ALPHA`) in the explore and budget tasks, and in the time task
+the value tuned for it on the ``random:`` training pools (:data:`TIME_ALPHA`, docs/references.md;
+the time task is the one whose ``info`` holds ``remaining_s``), unless the policy is given one.
 
 - Near-uniform gains: if max / min − 1 ≤ ``uniform_tolerance`` over the candidates' gains, the goal is
   a uniformly random candidate instead. Gains are ≥ 0; when the smallest is ≤ 0 the ratio is
@@ -29,8 +34,14 @@ from nbv_gym.nbv.visibility import VISIBILITY_MODELS
 
 #: The statistics an NBV policy can use, as in the layer names ``gain_<statistic>``.
 STATISTICS: tuple[str, ...] = ("nobs", "rmin", "nomega", "sigma")
-#: α, the weight of the travel cost (the cost layer: path length / the planner's cost range).
-DEFAULT_ALPHA = 2.0
+#: α, the weight of the travel cost (the cost layer: path length / the planner's cost range), of
+#: the paper's protocol (the authors' code): the explore and budget tasks' default.
+PAPER_ALPHA = 2.0
+#: α per statistic tuned for the time task (5 values × 8 episodes of ``random:mixed``,
+#: :mod:`nbv_gym.benchmark.tuning`): the time task's default. The gains count hundreds to
+#: thousands, so these let the cost decide and the gain break near-ties.
+TIME_ALPHA: dict[str, float] = {"nobs": 20000.0, "rmin": 2000.0, "nomega": 20000.0,
+                                "sigma": 20000.0}  # fmt: skip
 
 
 class NbvPolicy:
@@ -38,7 +49,8 @@ class NbvPolicy:
 
     Args:
         statistic: one of :data:`STATISTICS`.
-        alpha: weight of the travel cost.
+        alpha: weight of the travel cost; None: the task's (:data:`PAPER_ALPHA`, or
+            :data:`TIME_ALPHA` in the time task).
         uniform_tolerance: near-uniform threshold of max / min − 1 over the candidates' gains.
         visibility: the visibility model of the gain prediction
             (:data:`~nbv_gym.nbv.visibility.VISIBILITY_MODELS`), or None for the environment's.
@@ -47,7 +59,7 @@ class NbvPolicy:
     def __init__(
         self,
         statistic: str,
-        alpha: float = DEFAULT_ALPHA,
+        alpha: float | None = None,
         uniform_tolerance: float = 0.05,
         visibility: str | None = None,
     ):
@@ -55,7 +67,7 @@ class NbvPolicy:
             raise ConfigError(
                 f"statistic: expected one of {', '.join(STATISTICS)}, got {statistic!r}"
             )
-        if not alpha >= 0:
+        if alpha is not None and not alpha >= 0:
             raise ConfigError(f"alpha: must be ≥ 0, got {alpha}")
         if not uniform_tolerance >= 0:
             raise ConfigError(f"uniform_tolerance: must be ≥ 0, got {uniform_tolerance}")
@@ -65,7 +77,7 @@ class NbvPolicy:
             )
         self.statistic = statistic
         self.visibility = visibility
-        self.alpha = float(alpha)
+        self.alpha = None if alpha is None else float(alpha)
         self.uniform_tolerance = float(uniform_tolerance)
         self.gain_layer = f"gain_{statistic}"
         self.observation_layers: tuple[str, ...] = (self.gain_layer, "nbv_candidates")
@@ -84,10 +96,15 @@ class NbvPolicy:
         gains = observation_layer(observation, self.gain_layer)[candidates].astype(np.float64)
         if near_uniform(gains, self.uniform_tolerance):
             return self._uniform(candidates)
-        utility = gains - self.alpha * observation_layer(observation, "cost")[candidates].astype(
-            np.float64
-        )
+        cost = observation_layer(observation, "cost")[candidates].astype(np.float64)
+        utility = gains - self.task_alpha(info) * cost
         return self._uniform(candidates[utility == utility.max()])
+
+    def task_alpha(self, info: Mapping[str, Any]) -> float:
+        """α for the episode ``info`` belongs to: the policy's own, else the task's."""
+        if self.alpha is not None:
+            return self.alpha
+        return TIME_ALPHA[self.statistic] if "remaining_s" in info else PAPER_ALPHA
 
     def _uniform(self, choices: np.ndarray) -> int:
         return uniform_choice(self.rng, choices)
@@ -96,28 +113,28 @@ class NbvPolicy:
 class NbvNobs(NbvPolicy):
     """``nbv-nobs``: gain in the number of observations."""
 
-    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+    def __init__(self, visibility: str | None = None, alpha: float | None = None) -> None:
         super().__init__("nobs", alpha=alpha, visibility=visibility)
 
 
 class NbvRmin(NbvPolicy):
     """``nbv-rmin``: gain in the smallest observation range."""
 
-    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+    def __init__(self, visibility: str | None = None, alpha: float | None = None) -> None:
         super().__init__("rmin", alpha=alpha, visibility=visibility)
 
 
 class NbvNomega(NbvPolicy):
     """``nbv-nomega``: gain in the number of azimuth sectors observed from."""
 
-    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+    def __init__(self, visibility: str | None = None, alpha: float | None = None) -> None:
         super().__init__("nomega", alpha=alpha, visibility=visibility)
 
 
 class NbvSigma(NbvPolicy):
     """``nbv-sigma``: gain in the spherical variance of the viewing directions."""
 
-    def __init__(self, visibility: str | None = None, alpha: float = DEFAULT_ALPHA) -> None:
+    def __init__(self, visibility: str | None = None, alpha: float | None = None) -> None:
         super().__init__("sigma", alpha=alpha, visibility=visibility)
 
 

@@ -13,8 +13,8 @@ from nbv_gym.policies import load_policy
 
 
 def test_every_tunable_policy_gets_the_same_budget_and_its_keyword_exists():
-    for name, (keyword, grid, default) in TUNABLE.items():
-        assert len(grid) == GRID_SIZE and default in grid
+    for name, (keyword, grid) in TUNABLE.items():
+        assert len(grid) == GRID_SIZE
         policy = load_policy(name, **{keyword: grid[0]})  # the constructor takes the keyword
         value = getattr(policy, keyword, None) or getattr(policy.ranking, keyword)
         assert value == grid[0]
@@ -36,7 +36,7 @@ def test_tuning_runs_on_a_training_pool_only_and_names_a_bad_policy():
 
 @pytest.mark.slow
 def test_a_tuning_scores_every_value_on_the_same_episodes(monkeypatch):
-    monkeypatch.setitem(TUNABLE, "ig-unknown", ("lam", (0.05, 5.0), 0.05))
+    monkeypatch.setitem(TUNABLE, "ig-unknown", ("lam", (0.05, 5.0)))
     config = TuningConfig(episodes=1, time_budget_s=40.0)
     first = tune("ig-unknown", config, say=lambda _: None)
     again = tuning.episode_score("ig-unknown", {"lam": 0.05}, config, 0)

@@ -32,7 +32,16 @@ def info(n, invalid=()):
 def test_the_policies_declare_their_layers(name):
     policy = POLICIES[name]()
     assert policy.observation_layers == (f"gain_{name}", "nbv_candidates")
-    assert isinstance(policy, NbvPolicy) and policy.alpha == 2.0
+    assert isinstance(policy, NbvPolicy) and policy.alpha is None
+
+
+@pytest.mark.parametrize("name", POLICIES)
+def test_alpha_is_the_papers_but_in_the_time_task_and_a_given_one_wins(name):
+    tuned = {"nobs": 20000.0, "rmin": 2000.0, "nomega": 20000.0, "sigma": 20000.0}[name]
+    time_info = {**info(4), "remaining_s": 100.0}
+    assert POLICIES[name]().task_alpha(info(4)) == 2.0  # the paper's, explore and budget tasks
+    assert POLICIES[name]().task_alpha(time_info) == tuned
+    assert POLICIES[name](alpha=7.0).task_alpha(time_info) == 7.0
 
 
 class Corridor:

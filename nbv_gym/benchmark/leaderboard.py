@@ -35,8 +35,10 @@ from nbv_gym.benchmark.suites import HEADLINE_SPLIT
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
 
-#: The split whose score ranks the table.
-RANK_SPLIT = HEADLINE_SPLIT
+#: The splits whose score ranks the table, the first a scorecard has: the time task's test split,
+#: else (a suite on your own worlds, ``nbv-gym score --world``, has no test split) the time task
+#: on its worlds.
+RANK_SPLITS = (HEADLINE_SPLIT, "time-benchmark")
 #: The splits shown, in order (the scores table's columns, the profile figure's panels), with
 #: the label of their score and what it charges.
 SPLITS = {
@@ -79,17 +81,26 @@ class Entry:
         """Whether the entry's policy reads privileged values (an oracle, ranked apart)."""
         return bool(self.card["policy"]["oracle"])
 
-    def metric(self, split: str = RANK_SPLIT) -> str:
+    @property
+    def rank_split(self) -> str:
+        """The split that ranks the entry: the first of :data:`RANK_SPLITS` its card has."""
+        return rank_split(self.card)
+
+    def aggregates(self, split: str | None = None) -> dict[str, Any]:
+        """The aggregates of ``split`` (default: :attr:`rank_split`; {} if missing)."""
+        return self.card["aggregates"].get(split or self.rank_split, {})
+
+    def metric(self, split: str | None = None) -> str:
         """The score of ``split`` (its aggregates' ``metric``; ``q`` if the split is missing)."""
-        return self.card["aggregates"].get(split, {}).get("metric", "q")
+        return self.aggregates(split).get("metric", "q")
 
-    def effort(self, split: str = RANK_SPLIT) -> dict[str, Any]:
+    def effort(self, split: str | None = None) -> dict[str, Any]:
         """The ``effort`` aggregates of ``split`` ({} if missing)."""
-        return self.card["aggregates"].get(split, {}).get("effort") or {}
+        return self.aggregates(split).get("effort") or {}
 
-    def score(self, split: str = RANK_SPLIT) -> float:
+    def score(self, split: str | None = None) -> float:
         """The IQM of ``split``'s score (NaN if undefined or the split is missing)."""
-        value = self.card["aggregates"].get(split, {}).get("all", {}).get("iqm")
+        value = self.aggregates(split).get("all", {}).get("iqm")
         return np.nan if value is None else float(value)
 
     def runs(self, split: str, metric: str) -> tuple[np.ndarray, list[tuple[str, int]]]:
@@ -156,12 +167,18 @@ def _given_card(path: Path) -> dict[str, Any]:
     """The scorecard at ``path`` (validated on load); :class:`LeaderboardError` if it lacks the
     split that ranks the leaderboard."""
     card = load_scorecard(path)
-    if RANK_SPLIT not in card["aggregates"]:
+    if not any(split in card["aggregates"] for split in RANK_SPLITS):
         raise LeaderboardError(
-            f"{path} has no {RANK_SPLIT} split, which ranks the leaderboard; score the "
-            "policy on a suite with one (`nbv-gym score POLICY --suite standard`)."
+            f"{path} has no time-task split ({' or '.join(RANK_SPLITS)}), which ranks the "
+            "leaderboard; score the policy on a suite with one (`nbv-gym score POLICY --suite "
+            "standard`)."
         )
     return card
+
+
+def rank_split(card: dict[str, Any]) -> str:
+    """The first of :data:`RANK_SPLITS` the scorecard ``card`` has (the first if none)."""
+    return next((s for s in RANK_SPLITS if s in card["aggregates"]), RANK_SPLITS[0])
 
 
 def _no_references(suite: str) -> str:
@@ -227,8 +244,8 @@ def improvement(entry: Entry, best: Entry, seed: int = 0):
     interval."""
     from nbv_gym.reporting.inference import probability_of_improvement_interval
 
-    a, tasks_a = entry.runs(RANK_SPLIT, entry.metric())
-    b, tasks_b = best.runs(RANK_SPLIT, best.metric())
+    a, tasks_a = entry.runs(entry.rank_split, entry.metric())
+    b, tasks_b = best.runs(best.rank_split, best.metric())
     label = int.from_bytes(hashlib.sha256(entry.label.encode()).digest()[:4], "big")
     rng = np.random.default_rng([seed, label])
     return probability_of_improvement_interval(a, tasks_a, b, tasks_b, rng)
@@ -286,7 +303,7 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
     header = [
         "rank",
         "policy",
-        SPLIT_COLUMNS[RANK_SPLIT],
+        SPLIT_COLUMNS[best.rank_split],
         f"P(better than {best.label}, equal time)",
     ]
     rows = [header]
@@ -294,7 +311,7 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
         *((str(i + 1), e) for i, e in enumerate(players)),
         *(("oracle", e) for e in oracles),
     ]:
-        test = entry.card["aggregates"].get(RANK_SPLIT)
+        test = entry.aggregates()
         poi = improvements.get(entry.label)
         rows.append([
             rank,
@@ -428,7 +445,7 @@ def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
     them strictly. Entries without those figures are left out."""
     points = {}
     for entry in entries:
-        means = entry.card["aggregates"].get(RANK_SPLIT, {}).get("means", {})
+        means = entry.aggregates().get("means", {})
         q, path = entry.effort().get("q_at_budget", {}).get("iqm"), means.get("path_length_m")
         if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
             points[entry.label] = (q, path)
@@ -479,7 +496,7 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
     """One row of the effort table."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
 
-    test = entry.card["aggregates"].get(RANK_SPLIT, {})
+    test = entry.aggregates()
     means, effort = test.get("means", {}), entry.effort()
     decision = means.get("decision_time_s")
     at_budget = effort.get("q_at_budget")
@@ -527,7 +544,7 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
         )
         ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
     ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
-    ax.set_ylabel(f"Q ({RANK_SPLIT} split, mean and interquartile band)")
+    ax.set_ylabel(f"Q ({ordered[0].rank_split} split, mean and interquartile band)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="lower right")
     fig.tight_layout()

@@ -42,7 +42,8 @@ def score(
         list[str] | None,
         typer.Option(
             help="Run the suite's parts on the benchmark worlds on this world instead (a spec file, "
-            "e.g. your own scene; repeat for several); its scorecards rank apart."
+            "e.g. your own scene; repeat for several); another suite, whose scorecards rank "
+            "apart, by the time task on those worlds."
         ),
     ] = None,
     progress: Annotated[bool, typer.Option(help="Show progress bars on stderr.")] = True,

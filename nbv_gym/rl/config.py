@@ -197,11 +197,16 @@ class TrainConfig:
             f"{self.scheduler!r}",
         )
 
-    def effort(self) -> dict[str, float]:
-        """The effort keywords of the environment: the effort model, and the time task's
-        budget."""
-        effort = {"speed_mps": self.speed_mps, "scan_time_s": self.scan_time_s}
-        return {**effort, "time_budget_s": self.time_budget_s} if self.task == "time" else effort
+    def env_kwargs(self) -> dict[str, Any]:
+        """The :class:`~nbv_gym.env.ExploreEnv` keywords this config trains, evaluates and
+        packages under: task, noise, lidar, observation layers, the effort model, and the time
+        task's budget (whose scan cap is the environment's) or the other tasks' ``max_steps``."""
+        kwargs = {"task": self.task, "noise": self.noise, "lidar": self.lidar,
+                  "observation_layers": tuple(self.observation_layers),
+                  "speed_mps": self.speed_mps, "scan_time_s": self.scan_time_s}  # fmt: skip
+        if self.task == "time":
+            return {**kwargs, "time_budget_s": self.time_budget_s}
+        return {**kwargs, "max_steps": self.max_steps}
 
     @property
     def n_eval_episodes(self) -> int:

@@ -15,10 +15,8 @@ from typing import Any
 import gymnasium
 import numpy as np
 
-from nbv_gym.core.protocol import EXPLORE_MAX_STEPS
 from nbv_gym.env.explore import ExploreEnv
 from nbv_gym.worlds import load_world
-from nbv_gym.worlds.distribution import POOL_SIZE
 
 
 class WorldCycleEnv(gymnasium.Env):
@@ -26,48 +24,24 @@ class WorldCycleEnv(gymnasium.Env):
     ``worlds[k % len(worlds)]``; a single world distribution (``("random:mixed",)``) draws a world
     at every reset instead.
 
-    Rewards are multiplied by ``reward_scale``. ``invalid_action`` is the environment's option
-    (``"snap"`` for learners that do not read ``action_masks()``). One environment serves every
-    world: switching worlds swaps the scene and the ground truth and keeps the simulator's
-    arrays. ``info["world"]`` names the episode's world; ``world_pool_size`` and
-    ``episodes_per_world`` are the distribution's options (:class:`~nbv_gym.env.EnvConfig`);
-    ``effort`` holds the time task's ``time_budget_s`` and the effort model's ``speed_mps`` and
-    ``scan_time_s`` (keywords of :class:`~nbv_gym.env.ExploreEnv`; ``max_steps`` None: the time
-    task's scan cap); ``lidar`` a lidar preset (:mod:`nbv_gym.sensor.presets`).
+    Rewards are multiplied by ``reward_scale``. One environment serves every world: switching
+    worlds swaps the scene and the ground truth and keeps the simulator's arrays.
+    ``info["world"]`` names the episode's world. ``env_kwargs`` are
+    :class:`~nbv_gym.env.ExploreEnv`'s keywords (``task``, ``noise``, ``max_steps`` — None: the
+    time task's scan cap —, ``observation_layers``, ``invalid_action``: ``"snap"`` for learners
+    that do not read ``action_masks()``, ``world_pool_size``, ``episodes_per_world``, the effort
+    model's ``speed_mps`` and ``scan_time_s``, the time task's ``time_budget_s``, ``lidar``;
+    :meth:`~nbv_gym.rl.config.TrainConfig.env_kwargs` gives a training's).
     """
 
     metadata = {"render_modes": []}  # noqa: RUF012 (gymnasium.Env declares it an instance attribute)
 
     def __init__(
-        self,
-        worlds: tuple[str, ...] | list[str],
-        noise: int = 1,
-        max_steps: int | None = EXPLORE_MAX_STEPS,
-        observation_layers: tuple[str, ...] | list[str] = (),
-        reward_scale: float = 1.0,
-        invalid_action: str = "raise",
-        task: str = "explore",
-        world_pool_size: int = POOL_SIZE,
-        episodes_per_world: int = 1,
-        effort: dict[str, float] | None = None,
-        lidar: str = "os1-16",
+        self, worlds: tuple[str, ...] | list[str], reward_scale: float = 1.0, **env_kwargs: Any
     ):
         self.worlds = tuple(worlds)
         self.reward_scale = reward_scale
-        self.env = ExploreEnv(
-            task=task,
-            world=self.worlds[0],
-            noise=noise,
-            max_steps=max_steps,
-            observation_layers=tuple(observation_layers),
-            invalid_action=invalid_action,
-            world_pool_size=world_pool_size,
-            episodes_per_world=episodes_per_world,
-            time_budget_s=(effort or {}).get("time_budget_s"),
-            speed_mps=(effort or {}).get("speed_mps"),
-            scan_time_s=(effort or {}).get("scan_time_s"),
-            lidar=lidar,
-        )
+        self.env = ExploreEnv(world=self.worlds[0], **env_kwargs)
         self._world, self._episodes = self.worlds[0], 0
         self.action_space = self.env.action_space
         self.observation_space = self.env.observation_space

@@ -150,12 +150,13 @@ def zoo_model_name(algorithm: str, env_id: str) -> str:
 
 def zoo_env_kwargs(config: TrainConfig) -> dict[str, Any]:
     """The environment's keyword arguments for rl-zoo3 (``env_kwargs.yml``): the first held-out
-    world, the noise level, the budget and the layers of training; ``invalid_action: snap``,
-    since rl-zoo3's ``enjoy`` passes no action masks."""
+    world and the environment of training (:meth:`TrainConfig.env_kwargs`: task, noise, lidar,
+    layers, effort model and budget); ``invalid_action: snap``, since rl-zoo3's ``enjoy`` passes
+    no action masks. The task is the env id's, so it is left out."""
+    kwargs = {key: value for key, value in config.env_kwargs().items() if key != "task"}
     return {
         "world": (config.eval_worlds or config.train_worlds)[0],
-        "noise": config.noise,
-        "max_steps": config.max_steps,
+        **kwargs,
         "observation_layers": list(config.observation_layers),
         "invalid_action": "snap",
     }
@@ -216,11 +217,8 @@ def evaluate(
     for world in config.eval_worlds or config.train_worlds:
         env = ExploreEnv(
             "rgb_array" if replay is not None and not rows else None,
-            task=config.task,
             world=world,
-            noise=config.noise,
-            max_steps=config.max_steps,
-            observation_layers=required_layers(policy),
+            **{**config.env_kwargs(), "observation_layers": required_layers(policy)},
         )
         for k in range(episodes):
             record = replay is not None and not rows

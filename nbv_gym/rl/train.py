@@ -268,16 +268,11 @@ def _env_factory(config: TrainConfig, worlds: tuple[str, ...], monitor: str = "l
     return make_world_cycle(
         monitor=monitor,
         worlds=worlds,
-        task=config.task,
-        noise=config.noise,
-        max_steps=None if config.task == "time" else config.max_steps,
-        effort=config.effort(),
-        lidar=config.lidar,
-        observation_layers=config.observation_layers,
         reward_scale=config.reward_scale,
         invalid_action="raise" if config.algorithm == "MaskablePPO" else "snap",
         world_pool_size=config.world_pool_size,
         episodes_per_world=config.episodes_per_world,
+        **config.env_kwargs(),
     )
 
 

@@ -119,6 +119,17 @@ def test_leaderboard_writes_markdown_html_and_profiles(tiny_suite, tmp_path):
     assert "data:image/svg+xml;base64" in html.read_text()  # the figure travels with the page
 
 
+def test_a_suite_on_your_own_worlds_ranks_by_its_time_task(tiny_suite, tmp_path):
+    # nbv-gym score --world keeps the parts on the benchmark worlds: no test split
+    time = replace(tiny_suite.part("time-test"), split="time-benchmark", worlds=("pp1-cuboids",))
+    own = replace(tiny_suite, name="tiny-own", parts=(time, tiny_suite.part("benchmark")))
+    paths = [write(tmp_path, card(own, n, q)) for n, q in (("a", 0.3), ("b", 0.5))]
+    assert [e.rank_split for e in gather(paths, references=False)] == ["time-benchmark"] * 2
+    text = build_leaderboard(paths, False, tmp_path / "board").markdown.read_text()
+    assert "equal time, benchmark: IQM area under Q(t)" in text
+    assert text.index("| 1 | **`b`**") < text.index("| 2 | **`a`**")
+
+
 def test_a_policy_scored_twice_gets_two_labelled_entries(tiny_suite, tmp_path):
     first = write(tmp_path, card(tiny_suite, "a", 0.3))
     second = tmp_path / "again.json"

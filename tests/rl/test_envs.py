@@ -32,9 +32,13 @@ def test_the_time_task_trains_under_its_budget_and_effort_model():
     from nbv_gym.rl.config import TrainConfig
 
     config = TrainConfig(task="time", time_budget_s=120.0, speed_mps=0.5, scan_time_s=5.0)
-    assert config.effort() == {"speed_mps": 0.5, "scan_time_s": 5.0, "time_budget_s": 120.0}
-    assert "time_budget_s" not in TrainConfig().effort()  # the budget task has no time budget
-    env = WorldCycleEnv(("pp1-cuboids",), task="time", max_steps=None, effort=config.effort())
+    kwargs = config.env_kwargs()
+    assert {k: kwargs[k] for k in ("speed_mps", "scan_time_s", "time_budget_s")} == {
+        "speed_mps": 0.5, "scan_time_s": 5.0, "time_budget_s": 120.0}  # fmt: skip
+    assert "max_steps" not in kwargs  # the time task caps scans itself
+    budget = TrainConfig().env_kwargs()
+    assert "time_budget_s" not in budget and budget["max_steps"] == 12  # no time budget
+    env = WorldCycleEnv(("pp1-cuboids",), **kwargs)
     episode = env.env.config.simulator.episode
     assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (120.0, 0.5, 5.0)
     assert episode.max_steps == 25  # 120 s / 5 s per scan, + 1

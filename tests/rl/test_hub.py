@@ -162,3 +162,20 @@ def test_one_episode_per_world_gets_a_real_interval_and_a_single_episode_none():
     assert 0.01 <= q["low"] < q["mean"] < q["high"] <= 0.08
     assert "across the worlds" in results["interval"]
     assert results["per_world"]["a"]["q"] == {"mean": 0.01, "low": None, "high": None}
+
+
+def test_the_hub_environment_is_the_one_of_training_lidar_and_effort_included():
+    import gymnasium
+
+    from nbv_gym.core.protocol import TIME_ID
+    from nbv_gym.rl.hub import zoo_env_kwargs
+    from nbv_gym.sensor.presets import lidar_preset
+
+    config = TrainConfig(task="time", lidar="vlp-16", time_budget_s=90.0, speed_mps=0.5,
+                         eval_worlds=("pp1-cuboids",))  # fmt: skip
+    kwargs = zoo_env_kwargs(config)
+    env = gymnasium.make(TIME_ID, **kwargs).unwrapped
+    episode = env.sim.config.episode
+    assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (90.0, 0.5, 10.0)
+    assert env.sim.config.lidar == lidar_preset("vlp-16").config != lidar_preset("os1-16").config
+    assert kwargs["invalid_action"] == "snap"

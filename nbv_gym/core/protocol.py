@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 
 from nbv_gym.core.config import check
@@ -152,9 +153,9 @@ class EpisodeConfig:
         )
         EffortModel(self.speed_mps, self.scan_time_s)  # checks both
 
-    @property
+    @cached_property
     def effort(self) -> EffortModel:
-        """The effort model of ``speed_mps`` and ``scan_time_s``."""
+        """The effort model of ``speed_mps`` and ``scan_time_s`` (built once)."""
         return EffortModel(self.speed_mps, self.scan_time_s)
 
 

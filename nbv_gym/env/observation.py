@@ -90,7 +90,8 @@ class Observer:
         self.n_sectors = int(n_sectors)
         self.max_steps = int(max_steps)
         self.time_budget_s = time_budget_s
-        #: the longest path the time budget can buy, metres (None: no time budget)
+        #: a path no valid goal's exceeds in the time task, metres: the whole budget driven
+        #: (None: no time budget); it bounds the ``cost`` layer
         self.reach_m = None if time_budget_s is None else time_budget_s * speed_mps
         self._centres = goal_grid.xy_centres().T.copy()  # (2, n_goals): x row, y row
         self._diagonal = float(np.hypot(*(goal_grid.high[:2] - goal_grid.low[:2])))  # no BLAS
@@ -139,12 +140,7 @@ class Observer:
             out[name][:] = fractions.ravel()
         out["frontier"][:] = nav.frontier_goal_mask()
         out["valid"][:] = nav.goal_mask()
-        if self.reach_m is None:
-            out["cost"][:] = nav.goal_cost()
-        else:  # unclipped (a valid goal's path is shorter than reach_m)
-            out["cost"][:] = np.where(
-                nav.goal_mask(), nav.goal_path_length() / nav.cost_range_m, 1.0
-            )
+        out["cost"][:] = nav.goal_cost(clipped=self.reach_m is None)  # the time task's: not
         x, y = self._centres
         out["distance"][:] = np.hypot(x - pose.x, y - pose.y) / self._diagonal
         out["robot"][:] = 0.0

@@ -34,12 +34,10 @@ def map_voxels(occupancy, min_probability: float = 0.5) -> tuple[FloatArray, Flo
     known voxel), in (x, y, z) C order of the map's grid."""
     if not 0.0 <= min_probability <= 1.0:
         raise ExportError(f"min probability must be in [0, 1], got {min_probability}")
-    from scipy.special import expit
+    from nbv_gym.mapping.probability import probabilities
 
-    index, logodds = occupancy.voxels_at_least(0.0)  # the written blocks only
-    probability = expit(logodds)
-    keep = probability >= min_probability
-    return occupancy.grid.centres(index[keep]), probability[keep]
+    index, logodds = occupancy.voxels_at_least(min_probability)  # the written blocks only
+    return occupancy.grid.centres(index), probabilities(logodds)
 
 
 def export_map(occupancy, path: str | Path, min_probability: float = 0.5) -> int:

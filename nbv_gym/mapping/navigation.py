@@ -273,10 +273,12 @@ class NavigationLayer:
         goals = self._goal_arrays()
         return goals.mask if limited else goals.reachable
 
-    def goal_cost(self) -> np.ndarray:
-        """(n_goals,) float64 min(path length / search range, 1); 1 for invalid goals
-        (read-only)."""
-        return self._goal_arrays().cost
+    def goal_cost(self, clipped: bool = True) -> np.ndarray:
+        """(n_goals,) float64 min(path length / ``cost_range_m``, 1); 1 for invalid goals
+        (read-only). ``clipped=False``: path length / ``cost_range_m`` however far (the time
+        task's, whose reach limit bounds it)."""
+        goals = self._goal_arrays()
+        return goals.cost if clipped else goals.unclipped_cost
 
     def frontier_goal_mask(self) -> np.ndarray:
         """(n_goals,) bool: valid goals whose nav cell is or touches (8-neighbourhood) a frontier
@@ -297,11 +299,12 @@ class NavigationLayer:
         if self.robot_goal >= 0:
             reachable[self.robot_goal] = False
         mask = reachable & (path_length <= self.reach_m) if self.reach_m < math.inf else reachable
-        cost = np.where(mask, np.minimum(path_length / self.cost_range_m, 1.0), 1.0)
+        unclipped = np.where(mask, path_length / self.cost_range_m, 1.0)
+        cost = np.minimum(unclipped, 1.0)
         frontier = self._frontier_near.reshape(-1).take(cells) & mask
-        for array in (path_length, reachable, mask, cost, frontier):
+        for array in (path_length, reachable, mask, cost, unclipped, frontier):
             array.flags.writeable = False
-        return _Goals(path_length, reachable, mask, cost, frontier)
+        return _Goals(path_length, reachable, mask, cost, unclipped, frontier)
 
 
 @dataclass(frozen=True)
@@ -312,6 +315,7 @@ class _Goals:
     reachable: np.ndarray
     mask: np.ndarray
     cost: np.ndarray
+    unclipped_cost: np.ndarray
     frontier: np.ndarray
 
 

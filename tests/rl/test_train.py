@@ -261,3 +261,24 @@ def test_ctrl_c_in_training_saves_a_checkpoint_and_names_resume(
     monkeypatch.undo()
     code, err = _train_cli(capsys, *options, "--resume", saved[0])
     assert code == 0, err
+
+
+def test_a_training_can_start_from_a_shipped_models_weights_under_another_task(world, tmp_path):
+    from nbv_gym.policies import model_path
+    from nbv_gym.rl.agent import load_model
+
+    config = TrainConfig(
+        total_timesteps=1, n_envs=1, train_worlds=(world,), eval_worlds=(), task="time",
+        time_budget_s=60.0, learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
+        checkpoint_every_steps=0, eval_every_steps=0, init_model="ppo-budget",
+    )  # fmt: skip
+    model = train(config, tmp_path, progress_bar=False, time_limit_s=0.0)  # before any update
+    source = load_model(model_path("ppo-budget")).policy.state_dict()
+    mine = model.policy.state_dict()
+    weights = [k for k in mine if "log_high" not in k]
+    assert len(weights) > 40 and all(th.equal(mine[k], source[k]) for k in weights)
+    # the time task's cost layer is not clipped at 1: the run's own input scaling, not the source's
+    assert mine["features_extractor.log_high"].max() > 0
+    assert source["features_extractor.log_high"].max() == 0
+    with pytest.raises(ConfigError, match="init_model: 'ppo-budget' has another network"):
+        train(replace(config, features_dim=64), tmp_path / "other", progress_bar=False)

@@ -66,10 +66,11 @@ class Policy(Protocol):
 #: Prefix of a trained stable-baselines3 model: ``"sb3:runs/ppo/best_model.zip"``.
 SB3_PREFIX = "sb3:"
 
-#: Trained agents shipped in ``nbv_gym/policies/models/``: short name → model file. ``"ppo-budget"``
-#: is the reference agent (the shipped ``ppo`` training config: MaskablePPO on ``random:mixed``
-#: under the budget task); its config and learning curve lie beside it.
-MODELS: dict[str, str] = {"ppo-budget": "ppo-budget.zip"}
+#: Trained agents shipped in ``nbv_gym/policies/models/``: short name → model file, each with its
+#: config and learning curve beside it. ``"ppo-budget"``: the shipped ``ppo`` training config
+#: (MaskablePPO on ``random:mixed`` under the budget task); ``"ppo-time"``: the ``ppo-time``
+#: config (the same recipe under the time task, started from ``ppo-budget``).
+MODELS: dict[str, str] = {"ppo-budget": "ppo-budget.zip", "ppo-time": "ppo-time.zip"}
 
 #: Registered name prefixes → ``module:Class`` built from the rest of the name (a path).
 PREFIXES: dict[str, str] = {SB3_PREFIX: "nbv_gym.rl.agent:SB3Policy"}

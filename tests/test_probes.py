@@ -850,3 +850,19 @@ def test_writing_into_the_observation_changes_nothing_the_env_records(here):
         return info["predicted_gain"]["gain_nobs"]
 
     assert predicted_after_a_step(write=True) == predicted_after_a_step(write=False) != 12345.0
+
+
+def test_an_unreadable_numba_kernel_cache_is_one_line_naming_it(cli, here, monkeypatch):
+    import pickle
+
+    def truncated_cache(*args, **kwargs):  # numba's cache reader meeting a truncated .nbc file
+        where = compile("raise pickle.UnpicklingError('pickle data was truncated')",
+                        "/venv/site-packages/numba/core/caching.py", "exec")  # fmt: skip
+        exec(where, {"pickle": pickle})
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(here / "kernels"))
+    monkeypatch.setattr("nbv_gym.episode.ExploreEnv", truncated_cache)
+    line = one_line(cli("run", "--world", "tiny.toml", "--policy", "closest-frontier",
+                        "--max-steps", "1", "--no-animation", "--out", here / "out"))  # fmt: skip
+    assert "numba's cache of compiled kernels is unreadable (UnpicklingError" in line, line
+    assert f"in {here / 'kernels'}; delete its *.nbi and *.nbc files" in line, line

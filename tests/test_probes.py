@@ -802,3 +802,67 @@ def test_sigterm_during_run_force_leaves_the_earlier_run_and_no_partial_folder(h
     assert process.returncode == 130 and "Traceback" not in err, err
     assert hashes(target) == before
     assert not list(here.glob(f".{target.name}.partial-*"))
+
+
+# -- A fourth round (re-probe of issue #39's classes) ---------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "text", "args"),
+    [
+        ("scorecard.json", "[" * 100_000 + "]" * 100_000, ["leaderboard", "FILE", "--out", "b"]),
+        ("sweep.toml", "a = " + "[" * 100_000 + "]" * 100_000, ["sweep", "FILE", "--out", "s"]),
+    ],
+    ids=["json", "toml"],
+)
+def test_a_file_nested_too_deep_for_the_parser_is_one_line(cli, here, name, text, args):
+    (here / name).write_text(text)
+    line = one_line(cli(*[name if a == "FILE" else a for a in args]))
+    assert "nests arrays or tables deeper than the parser reads" in line, line
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["train", "--config", "FIFO.toml"],
+        ["run", "--world", "tiny.toml", "--policy", "sb3:FIFO.zip"],
+    ],
+    ids=["config", "model"],
+)
+def test_a_fifo_given_as_a_file_is_named_a_fifo_not_missing(cli, here, args):
+    for suffix in (".toml", ".zip"):
+        os.mkfifo(here / f"FIFO{suffix}")
+    line = one_line(cli(*args, "--out", here / "out"))
+    assert "is not a regular file (a FIFO)" in line and "does not exist" not in line, line
+
+
+def test_writing_into_the_observation_changes_nothing_the_env_records(here):
+    import gymnasium
+
+    def predicted_after_a_step(write: bool) -> float:
+        env = gymnasium.make("nbv_gym/Explore-v0", world="tiny.toml", noise=0, max_steps=3,
+                             observation_layers=["gain_nobs"])  # fmt: skip
+        observation, info = env.reset(seed=0)
+        if write:  # a policy scribbling on the layer it is handed
+            observation["gain_nobs"][:] = 12345.0
+        _, _, _, _, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
+        env.close()
+        return info["predicted_gain"]["gain_nobs"]
+
+    assert predicted_after_a_step(write=True) == predicted_after_a_step(write=False) != 12345.0
+
+
+def test_an_unreadable_numba_kernel_cache_is_one_line_naming_it(cli, here, monkeypatch):
+    import pickle
+
+    def truncated_cache(*args, **kwargs):  # numba's cache reader meeting a truncated .nbc file
+        where = compile("raise pickle.UnpicklingError('pickle data was truncated')",
+                        "/venv/site-packages/numba/core/caching.py", "exec")  # fmt: skip
+        exec(where, {"pickle": pickle})
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(here / "kernels"))
+    monkeypatch.setattr("nbv_gym.episode.ExploreEnv", truncated_cache)
+    line = one_line(cli("run", "--world", "tiny.toml", "--policy", "closest-frontier",
+                        "--max-steps", "1", "--no-animation", "--out", here / "out"))  # fmt: skip
+    assert "numba's cache of compiled kernels is unreadable (UnpicklingError" in line, line
+    assert f"in {here / 'kernels'}; delete its *.nbi and *.nbc files" in line, line

@@ -24,13 +24,14 @@ from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL, POSITIVE
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import describe_os_error
-from nbv_gym.core.progress import progress_bar, speak_on_stderr
+from nbv_gym.core.progress import kernel_cache_error, progress_bar, speak_on_stderr
 
 
 class _App(typer.Typer):
     """The CLI's one error boundary: nbv-gym's errors, bad options (Click's usage errors) and
     unusable files or folders (``OSError``: a full disk, no permission, a file where a folder
-    should be) become a one-line message and exit code 2; Ctrl-C a message and exit code 130."""
+    should be) and an unreadable numba kernel cache become a one-line message and exit code 2;
+    Ctrl-C a message and exit code 130."""
 
     def __call__(self, *args, **kwargs):
         try:
@@ -46,6 +47,11 @@ class _App(typer.Typer):
             _fail(_usage_message(error), getattr(error, "exit_code", 2) or 2)
         except OSError as error:
             _fail(describe_os_error(error))
+        except Exception as error:  # numba's own cache unreadable: say what to delete
+            message = kernel_cache_error(error)
+            if message is None:
+                raise
+            _fail(message)
         if code == 130:  # Click's answer to KeyboardInterrupt
             _fail("interrupted (Ctrl-C); what was finished is kept.", 130)
         raise SystemExit(code if isinstance(code, int) else 0)

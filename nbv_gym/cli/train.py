@@ -162,6 +162,11 @@ def _check_train_folder(out: Path, force: bool, resume: Path | None) -> bool:
         )
     if force and resume:
         raise OutputError("--force and --resume: give one (replace the training or continue it).")
+    if earlier and resume and not Path(resume).resolve().is_relative_to(out.resolve()):
+        raise OutputError(
+            f"--resume {resume} is not a checkpoint of the training in --out {out}, which it "
+            "would overwrite; continue a training in its own folder, or give a new folder."
+        )
     return bool(earlier)
 
 

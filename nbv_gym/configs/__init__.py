@@ -12,7 +12,7 @@ import importlib.resources
 from dataclasses import dataclass
 from pathlib import Path
 
-from nbv_gym.core.errors import ConfigError, UnknownNameError
+from nbv_gym.core.errors import ConfigError, UnknownNameError, missing_file
 
 #: The kinds of shipped config, each a folder of this package.
 KINDS = ("sweep", "train", "rl-zoo3")
@@ -64,7 +64,7 @@ def config_file(name_or_path: str | Path, kind: str | None = None) -> Path:
     if path.is_file() or text.endswith(_SUFFIXES) or "/" in text or "\\" in text:
         if not path.is_file():
             raise ConfigError(
-                f"Config file {text!r} does not exist; give a file path or a shipped config "
+                f"Config file {text!r} {missing_file(path)}; give a file path or a shipped config "
                 "name (see `nbv-gym configs list`)."
             )
         return path

@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, TypeVar, cast
 
-from nbv_gym.core.errors import ConfigError, missing_file
+from nbv_gym.core.errors import TOO_DEEP, ConfigError, missing_file
 
 T = TypeVar("T")
 
@@ -52,6 +52,8 @@ def parse_toml(text: str, source: str) -> dict[str, Any]:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"{source}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: not valid TOML: {TOO_DEEP}.") from None
 
 
 def read_toml(path: str | Path, kind: str) -> dict[str, Any]:

@@ -16,11 +16,22 @@ class NbvGymError(Exception):
 
 
 def missing_file(path: object) -> str:
-    """Why the file ``path`` cannot be read, for a message: ``"is a folder, not a file"`` or
-    ``"does not exist"`` (a folder given where a file is expected is named as such)."""
+    """Why the file ``path`` cannot be read, for a message: ``"is a folder, not a file"``,
+    ``"is not a regular file (a FIFO)"`` (a device, a socket) or ``"does not exist"``."""
     from pathlib import Path
 
-    return "is a folder, not a file" if Path(str(path)).is_dir() else "does not exist"
+    from nbv_gym.core.inputs import file_type
+
+    path = Path(str(path))
+    if path.is_dir():
+        return "is a folder, not a file"
+    if path.exists():
+        return f"is not a regular file ({file_type(path.stat().st_mode)})"
+    return "does not exist"
+
+
+#: Why a JSON or TOML file nested deeper than Python's parsers recurse is refused.
+TOO_DEEP = "it nests arrays or tables deeper than the parser reads (a result or config nests a few)"
 
 
 class ConfigError(NbvGymError, ValueError):

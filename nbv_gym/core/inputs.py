@@ -16,7 +16,7 @@ import stat
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from nbv_gym.core.errors import DataFileError, missing_file
+from nbv_gym.core.errors import TOO_DEEP, DataFileError, missing_file
 
 #: Results that are JSON (scorecards, summaries, manifests, table digests).
 MAX_JSON_BYTES = 64 << 20
@@ -55,7 +55,7 @@ def _check_regular(info: os.stat_result, path: Path, kind: str, max_bytes: int) 
         raise InputFileError(f"{kind} {path} is a folder, not a file.")
     if not stat.S_ISREG(info.st_mode):
         raise InputFileError(
-            f"{kind} {path} is not a regular file ({_file_type(info.st_mode)}); give a file."
+            f"{kind} {path} is not a regular file ({file_type(info.st_mode)}); give a file."
         )
     if info.st_size > max_bytes:
         raise InputFileError(
@@ -64,7 +64,8 @@ def _check_regular(info: os.stat_result, path: Path, kind: str, max_bytes: int) 
         )
 
 
-def _file_type(mode: int) -> str:
+def file_type(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` that is not a regular file or folder is ("a FIFO")."""
     kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
              (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))  # fmt: skip
     return next((name for test, name in kinds if test(mode)), "not a plain file")
@@ -101,6 +102,8 @@ def read_json(path: str | Path, kind: str, max_bytes: int = MAX_JSON_BYTES) -> A
         return json.loads(text, parse_constant=_no_constant, object_pairs_hook=_unique_keys)
     except ValueError as error:
         raise InputFileError(f"{kind} {path} is not valid JSON: {error}") from None
+    except RecursionError:
+        raise InputFileError(f"{kind} {path} is not valid JSON: {TOO_DEEP}.") from None
 
 
 def _no_constant(name: str) -> Any:

@@ -60,9 +60,30 @@ def say_if_compiling() -> None:
         say("compiling kernels, once per install (about 15 s on 2 cores)…")
 
 
+def kernel_cache_error(error: BaseException) -> str | None:
+    """One line for ``error`` if numba raised it while reading its cache of compiled kernels (a
+    truncated or overwritten ``.nbi``/``.nbc`` file: numba lets the unpickling error through),
+    naming the cache folder and the cure; None for any other error."""
+    frames, tb = [], error.__traceback__
+    while tb is not None:
+        frames.append(tb.tb_frame.f_code.co_filename.replace("\\", "/"))
+        tb = tb.tb_next
+    if not any(name.endswith("numba/core/caching.py") for name in frames):
+        return None
+    folder = os.environ.get("NUMBA_CACHE_DIR") or f"the __pycache__ folders of {_package()}"
+    return (
+        f"numba's cache of compiled kernels is unreadable ({type(error).__name__}: {error}) in "
+        f"{folder}; delete its *.nbi and *.nbc files (they are compiled again, about 15 s) or "
+        "set NUMBA_CACHE_DIR to an empty folder."
+    )
+
+
+def _package() -> Path:
+    return Path(__file__).resolve().parents[1]
+
+
 def _kernels_cached() -> bool:
-    package = Path(__file__).resolve().parents[1]
-    folder = Path(os.environ.get("NUMBA_CACHE_DIR") or package)
+    folder = Path(os.environ.get("NUMBA_CACHE_DIR") or _package())
     return next(folder.rglob("*.nbi"), None) is not None
 
 

@@ -118,8 +118,8 @@ class Observer:
         layers = dict(zip(BASE_LAYERS, block, strict=True))
         self._navigation_layers(navigation, pose, layers)
         self._statistics_layers(statistics, layers)
-        for name, layer in (optional or {}).items():
-            layers[name] = np.asarray(layer, np.float32).ravel()
+        for name, layer in (optional or {}).items():  # a copy: the layers' own arrays stay theirs
+            layers[name] = np.array(layer, np.float32).ravel()
         layers["state"] = self.state(pose, navigation.discovered_fraction, steps, elapsed_s)
         return layers
 

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.core.config import to_dict
+from nbv_gym.core.errors import missing_file
 from nbv_gym.core.outputs import writable_folder
 from nbv_gym.core.protocol import TASK_IDS
 from nbv_gym.policies import PolicyError
@@ -94,8 +95,9 @@ def find_source(path: str | Path, model: str | None = None) -> Source:
         )
     if path.suffix != ".zip" or not path.is_file():
         raise PolicyError(
-            f"No model at {str(path)!r}: expected a run folder of nbv-gym train, a model .zip "
-            f"with its .toml beside it, or a shipped model's name ({', '.join(MODELS)})."
+            f"No model at {str(path)!r} (it {missing_file(path)}): expected a run folder of "
+            "nbv-gym train, a model .zip with its .toml beside it, or a shipped model's name "
+            f"({', '.join(MODELS)})."
         )
     curve = path.with_suffix(".png")
     return Source(path, _config_file(path.with_suffix(".toml")), curve if curve.exists() else None)

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from nbv_gym.core.errors import missing_file
 from nbv_gym.policies import PolicyError
 
 #: The largest ``data`` member read (bytes); nbv-gym's models hold a few kB.
@@ -77,7 +78,10 @@ def model_file(path: Path) -> Path:
 def check_model_file(path: Path) -> None:
     """Raise :class:`PolicyError` unless ``path`` is an SB3 model zip."""
     if not path.is_file():
-        raise PolicyError(f"No SB3 model at {str(path)!r}: expected a .zip saved by nbv-gym train.")
+        raise PolicyError(
+            f"No SB3 model at {str(path)!r} (it {missing_file(path)}): expected a .zip saved by "
+            "nbv-gym train."
+        )
     if not zipfile.is_zipfile(path):
         raise PolicyError(f"{str(path)!r} is not an SB3 model: expected a .zip file.")
 

@@ -133,10 +133,14 @@ def train(
 
 
 def _learn(model, out: Path, steps: int, **kwargs) -> None:
-    """``model.learn(steps, **kwargs)``; when the cluster has lost every worker, the model is
-    saved as a checkpoint before the :class:`ClusterError` goes on, naming it."""
+    """``model.learn(steps, **kwargs)``, SIGTERM raising ``KeyboardInterrupt`` as Ctrl-C does (so
+    a batch system's stop saves a checkpoint too); when the cluster has lost every worker, the
+    model is saved as a checkpoint before the :class:`ClusterError` goes on, naming it."""
+    from nbv_gym.core.outputs import terminate_as_interrupt
+
     try:
-        model.learn(steps, **kwargs)
+        with terminate_as_interrupt():
+            model.learn(steps, **kwargs)
     except ClusterError as error:
         _close_logs(kwargs.get("callback", ()))
         path = _save_checkpoint(model, out)

@@ -216,7 +216,7 @@ def load_world(
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         lock = FileLock(path.with_suffix(".lock"))
-        lock.acquire()
+        _acquire(lock, spec.name)
     except OSError as error:  # a read-only cache folder: build without caching
         _cannot_cache(path, error)
         return _build(spec, None)
@@ -226,6 +226,18 @@ def load_world(
         return _build(spec, path)
     finally:
         lock.release()
+
+
+def _acquire(lock, name: str) -> None:
+    """Take the cache file's ``lock``; when another process holds it (building world ``name``),
+    say so, then wait for it."""
+    from filelock import Timeout
+
+    try:
+        lock.acquire(timeout=1.0)
+    except Timeout:
+        say(f"waiting for another process that builds world {name} (it holds {lock.lock_file})…")
+        lock.acquire()
 
 
 def _from_cache(path: Path, spec: AnySpec) -> World | None:

@@ -282,3 +282,31 @@ def test_a_training_can_start_from_a_shipped_models_weights_under_another_task(w
     assert source["features_extractor.log_high"].max() == 0
     with pytest.raises(ConfigError, match="init_model: 'ppo-budget' has another network"):
         train(replace(config, features_dim=64), tmp_path / "other", progress_bar=False)
+
+
+def test_resume_from_another_trainings_model_into_a_finished_training_is_refused(
+    earlier, cli_run, capsys
+):
+    out, before, options = earlier
+    code, err = _train_cli(
+        capsys, *options, "--timesteps", "48", "--resume", cli_run / "final_model.zip"
+    )
+    assert code == 2 and "is not a checkpoint of the training in --out" in err, err
+    assert _sha256s(out) == before
+
+
+def test_sigterm_in_training_saves_a_checkpoint_like_ctrl_c(
+    config_file, capsys, tmp_path, monkeypatch
+):
+    import signal
+
+    def sigterm(self):  # SIGTERM as the interpreter delivers it: its handler, in the main thread
+        signal.getsignal(signal.SIGTERM)(signal.SIGTERM, None)
+
+    monkeypatch.setattr("nbv_gym.rl.callbacks.EpisodeLog._on_rollout_end", sigterm)
+    out = tmp_path / "fresh"
+    code, err = _train_cli(capsys, "--config", config_file, "--timesteps", "48", "--n-envs", "1",
+                           "--device", "cpu", "--no-progress", "--out", out)  # fmt: skip
+    saved = sorted((out / "checkpoints").glob("model_*_steps.zip"))
+    assert code == 130 and len(saved) == 1 and f"--resume {saved[0]}" in err, err
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored afterwards

@@ -238,3 +238,27 @@ def test_a_read_only_cache_folder_is_named_and_the_world_still_loads(world_cache
         world = load_world(spec)
     assert world.ground_truth.voxels.size > 0 and not cache_path(spec).exists()
     assert not list(folder.glob("*.tmp.npz"))
+
+
+def test_a_world_whose_cache_lock_another_process_holds_says_it_waits(world_cache, caplog):
+    import logging
+    import threading
+    import time
+
+    from filelock import FileLock
+
+    spec = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 48"), "tiny")
+    cache_path(spec).parent.mkdir(parents=True, exist_ok=True)
+    taken = threading.Event()
+
+    def hold() -> None:  # another holder: its own thread and descriptor, for 2 s
+        with FileLock(cache_path(spec).with_suffix(".lock")):
+            taken.set()
+            time.sleep(2.0)
+
+    threading.Thread(target=hold).start()
+    taken.wait()
+    with caplog.at_level(logging.INFO, logger="nbv_gym"):
+        world = load_world(spec)
+    assert world.ground_truth.voxels.size > 0
+    assert any("waiting for another process that builds world tiny" in m for m in caplog.messages)

@@ -167,6 +167,7 @@ def _given_card(path: Path) -> dict[str, Any]:
     """The scorecard at ``path`` (validated on load); :class:`LeaderboardError` if it lacks the
     split that ranks the leaderboard."""
     card = load_scorecard(path)
+    _check_shipped_suite(card, path)
     if not any(split in card["aggregates"] for split in RANK_SPLITS):
         raise LeaderboardError(
             f"{path} has no time-task split ({' or '.join(RANK_SPLITS)}), which ranks the "
@@ -174,6 +175,24 @@ def _given_card(path: Path) -> dict[str, Any]:
             "standard`)."
         )
     return card
+
+
+def _check_shipped_suite(card: dict[str, Any], path: Path) -> None:
+    """:class:`LeaderboardError` unless a scorecard that names a shipped suite records that
+    suite as this nbv-gym defines it (its hash, seed and parts: an edited budget or a dropped
+    repeat with the hash kept, or a card of another nbv-gym version, would rank otherwise)."""
+    from nbv_gym.benchmark.suites import shipped_identity
+
+    recorded = card["suite"]
+    expected = shipped_identity(recorded)
+    if expected is None or recorded == expected:
+        return
+    field = next(k for k in expected if recorded.get(k) != expected[k])
+    raise LeaderboardError(
+        f"{path}: its suite {recorded['name']!r} differs from this nbv-gym's (suite.{field}); "
+        f"score the policy again with this nbv-gym (`nbv-gym score POLICY --suite "
+        f"{recorded['name']}`)."
+    )
 
 
 def rank_split(card: dict[str, Any]) -> str:

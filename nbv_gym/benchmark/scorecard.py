@@ -126,13 +126,7 @@ def build_scorecard(
     return {
         "format": FORMAT,
         "protocol_version": PROTOCOL_VERSION,
-        "suite": {
-            "name": suite.name,
-            "hash": suite.content_hash(),
-            "seed": suite.seed,
-            "description": suite.description,
-            "parts": [part.description() for part in suite.parts],
-        },
+        "suite": suite.identity(),
         "nbv_gym": {"version": found.pop("nbv-gym"), "git_commit": found.pop("git_commit")},
         "versions": found,
         "policy": policy,

@@ -45,7 +45,7 @@ from nbv_gym.core.protocol import (
     check_task,
     task_episode,
 )
-from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config, lidar_preset
+from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS, lidar_config, lidar_preset
 from nbv_gym.worlds.spec import AnySpec, WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
@@ -185,6 +185,29 @@ class Suite:
         """SHA-256 (16 hex digits) of :meth:`content`."""
         text = json.dumps(self.content(), sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def identity(self) -> dict[str, Any]:
+        """The suite as a scorecard records it: name, content hash, seed, description, parts."""
+        return {
+            "name": self.name,
+            "hash": self.content_hash(),
+            "seed": self.seed,
+            "description": self.description,
+            "parts": [part.description() for part in self.parts],
+        }
+
+
+def shipped_identity(recorded: dict[str, Any]) -> dict[str, Any] | None:
+    """What a scorecard of the shipped suite it names must record as its ``suite`` (with the
+    lidar preset its parts name), or None for a suite nbv-gym does not ship (a test's, or your
+    own worlds': those are checked against their own parts only)."""
+    if recorded.get("name") not in SUITES:
+        return None
+    lidars = {part.get("lidar", DEFAULT_LIDAR) for part in recorded.get("parts", [])}
+    suite = SUITES[recorded["name"]]
+    if len(lidars) == 1 and lidars != {DEFAULT_LIDAR} and next(iter(lidars)) in LIDAR_PRESETS:
+        suite = suite.with_lidar(next(iter(lidars)))
+    return suite.identity()
 
 
 #: Base seed of the shipped suites' run seeds.

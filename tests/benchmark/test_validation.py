@@ -194,3 +194,27 @@ def test_validation_needs_no_copy_of_the_aggregation(tiny_suite, monkeypatch, tm
     monkeypatch.setattr(scorecard, "aggregate", with_more)
     with pytest.raises(ScorecardError, match=r"aggregates\.[a-z-]+\.new is missing"):
         load_scorecard(path)
+
+
+@pytest.mark.parametrize(
+    ("edit", "field"),
+    [
+        (lambda suite: suite["parts"][3].update(budget_scans=20), "parts"),  # hash kept
+        (lambda suite: suite.update(hash="0123456789abcdef"), "hash"),  # another nbv-gym's
+        (lambda suite: suite.update(seed=1), "seed"),
+    ],
+)
+def test_a_card_of_a_shipped_suite_records_that_suite_as_this_nbv_gym_defines_it(
+    tmp_path, edit, field
+):
+    from nbv_gym.benchmark.suites import QUICK
+    from tests.benchmark.test_leaderboard import write
+
+    good = card(QUICK, "fine", 0.3)
+    assert [e.label for e in gather([write(tmp_path, good)], references=False)] == ["fine"]
+    vlp = card(QUICK.with_lidar("vlp-16"), "vlp", 0.3)  # another lidar: that suite's identity
+    assert gather([write(tmp_path, vlp)], references=False)[0].label == "vlp"
+    edited = card(QUICK, "edited", 0.3)
+    edit(edited["suite"])
+    with pytest.raises(LeaderboardError, match=rf"differs from this nbv-gym's \(suite\.{field}\)"):
+        gather([write(tmp_path, edited)], references=False)

@@ -15,6 +15,7 @@ from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
 from nbv_gym.mapping.statistics import StatisticsConfig, ViewpointStatistics
 from nbv_gym.mapping.tally import CellTally
 from nbv_gym.sensor.lidar import SENSOR_RANGE_M, Scan
+from nbv_gym.worlds.spec import MAX_WINDOW_M
 
 
 @dataclass(frozen=True)
@@ -34,7 +35,7 @@ class MappingConfig:
     statistics: StatisticsConfig = field(default_factory=StatisticsConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
     fit_to_world: bool = True
-    max_window_m: float = 500.0
+    max_window_m: float = MAX_WINDOW_M
 
     def __post_init__(self) -> None:
         check(self.sensor_range_m > 0, "sensor_range_m", f"must be > 0, got {self.sensor_range_m}")

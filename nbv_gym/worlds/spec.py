@@ -26,6 +26,9 @@ ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
 #: Upper bounds of the values that size a world's memory and build time (the benchmark worlds
 #: hold 50 assets from a library of 15 trees; 1000 assets in the 60 m window overlap already).
 MAX_ASSETS = 1000
+#: The longest side of a world's window, metres: the largest window the map's goal grid grows to
+#: (the mapping's ``max_window_m`` default); a larger world could not be mapped whole.
+MAX_WINDOW_M = 500.0
 MAX_TREE_LIBRARY = 100
 
 
@@ -60,6 +63,12 @@ class PlacementConfig:
         check(all(map(math.isfinite, self.window_m)), "window_m", "must be finite")
         x0, y0, x1, y1 = self.window_m
         check(x0 < 0 < x1 and y0 < 0 < y1, "window_m", "must contain the start (0, 0)")
+        check(
+            max(x1 - x0, y1 - y0) <= MAX_WINDOW_M,
+            "window_m",
+            f"its sides must be at most {MAX_WINDOW_M:g} m (the largest window the map grows "
+            f"to), got {x1 - x0:g} m × {y1 - y0:g} m",
+        )
         check(0 <= self.clear_radius_m < math.inf, "clear_radius_m", "must be ≥ 0 and finite")
         nearest = min(-x0, -y0, x1, y1)
         check(

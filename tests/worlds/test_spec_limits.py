@@ -8,6 +8,7 @@ import warnings
 import pytest
 
 from nbv_gym.core.errors import ConfigError
+from nbv_gym.mapping.state import MappingConfig
 from nbv_gym.simulator import Simulator, SimulatorConfig
 from nbv_gym.worlds import load_spec, parse_spec
 
@@ -52,16 +53,22 @@ def test_a_degenerate_spec_is_refused_naming_the_key(old, new, message):
             parse_spec(SPEC.replace(old, new), "edge.toml")
 
 
+def test_a_window_larger_than_any_map_is_refused_when_the_spec_is_read():
+    text = SPEC.replace("ground_size_m = 64.0", "ground_size_m = 2000.0")
+    wide = text.replace("[-30.0, -30.0, 30.0, 30.0]", "[-300.0, -10.0, 300.0, 10.0]")
+    with pytest.raises(ConfigError, match=r"window_m: its sides must be at most 500 m .* 600 m"):
+        parse_spec(wide, "edge.toml")  # it built for minutes before a run refused it
+
+
 def test_a_window_beyond_the_goal_grid_is_refused_before_the_world_is_built(tmp_path):
     spec = tmp_path / "wide.toml"
-    text = SPEC.replace("ground_size_m = 64.0", "ground_size_m = 2000.0")
-    spec.write_text(
-        text.replace("[-30.0, -30.0, 30.0, 30.0]", "[-1000.0, -1000.0, 1000.0, 1000.0]")
-    )
-    assert load_spec(spec).placement.window_m[0] == -1000  # a valid spec on its own
+    text = SPEC.replace("ground_size_m = 64.0", "ground_size_m = 400.0")
+    spec.write_text(text.replace("[-30.0, -30.0, 30.0, 30.0]", "[-200.0, -200.0, 200.0, 200.0]"))
+    assert load_spec(spec).placement.window_m[0] == -200  # a valid spec on its own
+    small = SimulatorConfig(world=str(spec), mapping=MappingConfig(max_window_m=100.0))
     with pytest.raises(ConfigError, match=r"placement.window_m: world 'edge' places assets in "
-                       r"\(-1000.0, -1000.0, 1000.0, 1000.0\), outside the goal grid"):  # fmt: skip
-        Simulator(SimulatorConfig(world=str(spec)))
+                       r"\(-200.0, -200.0, 200.0, 200.0\), outside the goal grid"):  # fmt: skip
+        Simulator(small)
 
 
 def test_an_empty_world_name_says_so():

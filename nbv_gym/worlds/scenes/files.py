@@ -14,15 +14,16 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.errors import DataFileError
+from nbv_gym.worlds.spec import MAX_WINDOW_M
 
 #: The largest mesh read (triangles) and point cloud (points): ~1.3 GB of working memory for
 #: either at these sizes (docs/scenes.md).
 MAX_TRIANGLES = 20_000_000
 MAX_POINTS = 50_000_000
 #: The plausible horizontal size of a scene after ``scale``, metres: from a room (1 m) to the
-#: largest window the goal grid grows to (mapping.max_window_m, 500 m).
+#: largest window the goal grid grows to.
 MIN_SIZE_M = 1.0
-MAX_SIZE_M = 500.0
+MAX_SIZE_M = MAX_WINDOW_M
 
 
 class SceneFileError(DataFileError):

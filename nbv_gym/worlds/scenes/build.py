@@ -150,7 +150,7 @@ def _start(spec: SceneSpec, truth: GroundTruth, low: FloatArray, high: FloatArra
         raise ConfigError(
             f"{spec.name}: no point of the scene has {scene.clear_radius_m:g} m of free ground "
             f"around it (scene.clear_radius_m); give scene.start_m or lower clear_radius_m — "
-            f"or, if the scene lies on its side, set its up axis (scene.up = \"z\" or \"y\", "
+            f'or, if the scene lies on its side, set its up axis (scene.up = "z" or "y", '
             f"now {scene.up!r}; nbv-gym worlds import --up)"
         )
     centres = origin + (np.argwhere(free) + 0.5) * START_CELL_M

@@ -110,10 +110,10 @@ class Entry:
         return values, [(r["world"], r["noise"]) for r in runs]
 
 
-def gather(paths: list[str | Path], references: bool) -> list[Entry]:
+def gather(paths: list[str | Path], references: bool, suite: str | None = None) -> list[Entry]:
     """The entries of the scorecard files (or folders holding ``scorecard.json``) ``paths``,
-    plus, if ``references``, the shipped references of their suite (of the standard suite when
-    no path is given) that belong to this protocol version (stale ones are left out:
+    plus, if ``references``, the shipped references of their suite (of ``suite``, by default
+    the standard suite, when no path is given) that belong to this protocol version (stale ones are left out:
     :func:`~nbv_gym.benchmark.references.pending_note`); :class:`LeaderboardError` if there are
     none, if that suite has no references, or if the scorecards belong to different suites or
     protocol versions."""
@@ -127,8 +127,13 @@ def gather(paths: list[str | Path], references: bool) -> list[Entry]:
     given = [(path, _given_card(path)) for path in _scorecard_paths(paths)]
     entries: list[Entry] = []
     pending = ""
+    if suite is not None and (given or not references):
+        raise LeaderboardError(
+            f"--suite {suite} names whose references to rank without a scorecard (with "
+            "--references); a scorecard's references are those of its own suite."
+        )
     if references:
-        suite = given[0][1]["suite"]["name"] if given else REFERENCE_SUITE.name
+        suite = given[0][1]["suite"]["name"] if given else suite or REFERENCE_SUITE.name
         if not load_references(suite):
             raise LeaderboardError(_no_references(suite))
         current, stale = current_references(suite)
@@ -280,7 +285,9 @@ class Leaderboard:
     summary: str
 
 
-def build_leaderboard(paths: list[str | Path], references: bool, out: str | Path) -> Leaderboard:
+def build_leaderboard(
+    paths: list[str | Path], references: bool, out: str | Path, suite: str | None = None
+) -> Leaderboard:
     """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
     (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
     ``out``."""
@@ -289,7 +296,7 @@ def build_leaderboard(paths: list[str | Path], references: bool, out: str | Path
     from nbv_gym.reporting.html import write_html
 
     check_owner(out, "leaderboard")  # another command's folder fails before any work
-    entries = gather(paths, references)
+    entries = gather(paths, references, suite)
     pending = _pending_references(entries) if references else ""
     say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "
         "bootstrap interval per entry…")  # fmt: skip

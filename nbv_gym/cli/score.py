@@ -113,6 +113,13 @@ def leaderboard(
     out: Annotated[Path, typer.Option(help="Folder for leaderboard.md and .html.")] = Path(
         "leaderboard"
     ),
+    suite: Annotated[
+        str | None,
+        typer.Option(
+            help="With --references and no scorecard: the suite whose references are ranked "
+            "(standard, quick) [default: standard]."
+        ),
+    ] = None,
 ) -> None:
     """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html); the
     ranking is printed too.
@@ -130,11 +137,12 @@ def leaderboard(
 
     \b
       nbv-gym leaderboard --references --out board
+      nbv-gym leaderboard --references --suite quick --out board-quick
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
       nbv-gym leaderboard scores/a scores/b --out board
     """
     from nbv_gym.benchmark.leaderboard import build_leaderboard
 
-    board = build_leaderboard(list(scorecards or []), references, out)
+    board = build_leaderboard(list(scorecards or []), references, out, suite)
     typer.echo(board.summary)
     typer.echo(f"leaderboard: {board.markdown} and {board.html}")

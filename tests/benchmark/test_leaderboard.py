@@ -294,3 +294,17 @@ def test_the_cli_prints_the_ranking(tiny_suite, tmp_path):
     ranking = [line.split()[:2] for line in result.stdout.splitlines()[2:4]]
     assert ranking == [["1", "b"], ["2", "a"]]
     assert result.stdout.splitlines()[-1].startswith("leaderboard: ")
+
+
+def test_the_references_of_another_suite_rank_by_name_and_suite_needs_no_scorecard(
+    tiny_suite, tmp_path
+):
+    from nbv_gym.benchmark.references import reference_path, reference_suites, shipped_policies
+
+    assert "quick" in reference_suites()
+    entries = gather([], references=True, suite="quick")
+    shipped = {n for n in shipped_policies() if reference_path(n, "quick").is_file()}
+    assert {e.label for e in entries} == shipped
+    assert {e.card["suite"]["name"] for e in entries} == {"quick"}
+    with pytest.raises(LeaderboardError, match="--suite quick names whose references to rank"):
+        gather([write(tmp_path, card(tiny_suite, "a", 0.3))], references=True, suite="quick")

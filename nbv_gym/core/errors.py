@@ -8,7 +8,9 @@ exit codes.
 from __future__ import annotations
 
 import difflib
+import stat
 from collections.abc import Iterable
+from pathlib import Path
 
 
 class NbvGymError(Exception):
@@ -18,16 +20,19 @@ class NbvGymError(Exception):
 def missing_file(path: object) -> str:
     """Why the file ``path`` cannot be read, for a message: ``"is a folder, not a file"``,
     ``"is not a regular file (a FIFO)"`` (a device, a socket) or ``"does not exist"``."""
-    from pathlib import Path
-
-    from nbv_gym.core.inputs import file_type
-
     path = Path(str(path))
     if path.is_dir():
         return "is a folder, not a file"
     if path.exists():
         return f"is not a regular file ({file_type(path.stat().st_mode)})"
     return "does not exist"
+
+
+def file_type(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` that is not a regular file or folder is ("a FIFO")."""
+    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))  # fmt: skip
+    return next((name for test, name in kinds if test(mode)), "not a plain file")
 
 
 #: Why a JSON or TOML file nested deeper than Python's parsers recurse is refused.

@@ -16,7 +16,7 @@ import stat
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from nbv_gym.core.errors import TOO_DEEP, DataFileError, missing_file
+from nbv_gym.core.errors import TOO_DEEP, DataFileError, file_type, missing_file
 
 #: Results that are JSON (scorecards, summaries, manifests, table digests).
 MAX_JSON_BYTES = 64 << 20
@@ -62,13 +62,6 @@ def _check_regular(info: os.stat_result, path: Path, kind: str, max_bytes: int) 
             f"{kind} {path} has {info.st_size:,} bytes, more than the limit of {max_bytes:,} "
             "bytes for such files (docs/security.md)."
         )
-
-
-def file_type(mode: int) -> str:
-    """What a file of ``st_mode`` ``mode`` that is not a regular file or folder is ("a FIFO")."""
-    kinds = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
-             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))  # fmt: skip
-    return next((name for test, name in kinds if test(mode)), "not a plain file")
 
 
 def read_input(path: str | Path, kind: str, max_bytes: int) -> bytes:

@@ -95,19 +95,21 @@ def asset_order(assets) -> list[str]:
     )
 
 
-#: Twelve colours that stay apart on white, for the twelve shipped policies: matplotlib's tab10,
-#: then black and a dark gold (a dark teal read as tab10's blue in thin lines).
+#: Fourteen colours that stay apart on white, for the thirteen shipped policies and one of yours:
+#: matplotlib's tab10, then black, a dark gold, maroon and navy (a dark teal read as tab10's blue
+#: in thin lines).
 PALETTE = (
     "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-    "#bcbd22", "#17becf", "#000000", "#f5c200",
+    "#bcbd22", "#17becf", "#000000", "#f5c200", "#800000", "#000080",
 )  # fmt: skip
 
 
 def policy_colours(policies: list[str]) -> dict[str, Any]:
     """A colour per policy label: the labels drawn take :data:`PALETTE`'s colours in turn, the
     shipped policies first in a fixed order (the paper's seven, the references, the trained
-    models), then the others in the order given — so up to twelve labels never share a colour,
-    and a shipped policy keeps its colour from figure to figure of the same set."""
+    models), then the others in the order given — so up to fourteen labels (every shipped
+    policy and one of yours) never share a colour, and a shipped policy keeps its colour from
+    figure to figure of the same set."""
     from nbv_gym.policies import MODELS, REFERENCE_POLICIES
 
     shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS]

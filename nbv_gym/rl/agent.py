@@ -34,7 +34,7 @@ class SB3Policy:
     """
 
     def __init__(self, path: str | Path, device: str = "cpu"):
-        from nbv_gym.rl.train import require_rl
+        from nbv_gym.rl.config import require_rl
 
         require_rl()
         self.path = model_file(Path(path))
@@ -74,8 +74,8 @@ def load_model(path: Path, device: str = "cpu"):
     """The SB3 model saved at ``path``, loaded once its data JSON declares a supported algorithm
     and Explore-v0's spaces (:func:`~nbv_gym.rl.modelfile.describe_model`). Loading unpickles
     the file: a model is code, load only models you trust."""
+    from nbv_gym.rl.config import algorithm_class
     from nbv_gym.rl.modelfile import describe_model
-    from nbv_gym.rl.train import algorithm_class
 
     check_model_file(path)
     description = describe_model(path)

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from nbv_gym.core.config import check, from_dict, read_toml
-from nbv_gym.core.errors import ConfigError, UnknownNameError
+from nbv_gym.core.errors import ConfigError, MissingExtraError, UnknownNameError
 from nbv_gym.core.protocol import (
     BUDGET_SCANS,
     SCAN_TIME_S,
@@ -26,10 +26,37 @@ from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
 from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
 
+if TYPE_CHECKING:
+    from stable_baselines3.common.base_class import BaseAlgorithm
+
 #: Algorithms ``nbv-gym train`` supports. MaskablePPO reads the action mask; PPO and A2C do not,
 #: so their environments snap an invalid goal to the nearest valid one (``invalid_action="snap"``,
 #: :mod:`nbv_gym.env.actions`).
 ALGORITHMS = ("MaskablePPO", "PPO", "A2C")
+#: SB3 algorithm class names → ``module:Class`` (SB3's classes saving lean model files).
+ALGORITHM_CLASSES = {name: f"nbv_gym.rl.algorithms:{name}" for name in ALGORITHMS}
+
+
+def require_rl() -> None:
+    """Raise :class:`MissingExtraError` unless torch, stable-baselines3 and sb3-contrib import."""
+    for module, package in (
+        ("torch", "torch"),
+        ("stable_baselines3", "stable-baselines3"),
+        ("sb3_contrib", "sb3-contrib"),
+    ):
+        try:
+            __import__(module)
+        except ImportError:
+            raise MissingExtraError(package, "rl") from None
+
+
+def algorithm_class(name: str) -> type[BaseAlgorithm]:
+    """The SB3 class of an algorithm name in :data:`ALGORITHM_CLASSES`."""
+    import importlib
+
+    module, _, cls = ALGORITHM_CLASSES[name].partition(":")
+    return getattr(importlib.import_module(module), cls)
+
 
 #: Training draws a fresh world of every asset type from a pool disjoint from the benchmark.
 TRAIN_WORLDS = ("random:mixed",)

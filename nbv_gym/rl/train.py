@@ -25,18 +25,15 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     import gymnasium
-    from stable_baselines3.common.base_class import BaseAlgorithm
     from stable_baselines3.common.vec_env import VecEnv
 
 from nbv_gym.core.config import to_dict
-from nbv_gym.core.errors import ClusterError, ConfigError, MissingExtraError, NbvGymError
+from nbv_gym.core.errors import ClusterError, ConfigError, NbvGymError
 from nbv_gym.core.progress import say
-from nbv_gym.rl.config import ALGORITHMS, TrainConfig
+from nbv_gym.rl.config import TrainConfig, algorithm_class, require_rl
 from nbv_gym.rl.curve import CURVE_PNG, EPISODES_CSV, plot_learning_curve
 from nbv_gym.rl.learner import prepare_learner
 
-#: SB3 algorithm class names → ``module:Class`` (SB3's classes saving lean model files).
-ALGORITHM_CLASSES = {name: f"nbv_gym.rl.algorithms:{name}" for name in ALGORITHMS}
 FINAL_MODEL = "final_model.zip"
 BEST_MODEL = "best_model.zip"
 #: What a training writes into its run folder (files and folders): an earlier training's.
@@ -49,19 +46,6 @@ class TrainingInterrupted(NbvGymError):
     message names with the ``--resume`` that continues from it."""
 
     exit_code = 130
-
-
-def require_rl() -> None:
-    """Raise :class:`MissingExtraError` unless torch, stable-baselines3 and sb3-contrib import."""
-    for module, package in (
-        ("torch", "torch"),
-        ("stable_baselines3", "stable-baselines3"),
-        ("sb3_contrib", "sb3-contrib"),
-    ):
-        try:
-            __import__(module)
-        except ImportError:
-            raise MissingExtraError(package, "rl") from None
 
 
 def train(
@@ -285,14 +269,6 @@ def _share(worlds: tuple[str, ...], i: int, n: int) -> tuple[str, ...]:
         return worlds[i::n]
     shift = i % len(worlds)
     return worlds[shift:] + worlds[:shift]
-
-
-def algorithm_class(name: str) -> type[BaseAlgorithm]:
-    """The SB3 class of an algorithm name in :data:`ALGORITHM_CLASSES`."""
-    import importlib
-
-    module, _, cls = ALGORITHM_CLASSES[name].partition(":")
-    return getattr(importlib.import_module(module), cls)
 
 
 def policy_setup(config: TrainConfig) -> tuple[type | str, dict[str, Any]]:

@@ -45,7 +45,7 @@ def test_an_unknown_name_suggests_the_near_miss_of_its_kind():
         UnknownNameError, match=r"Unknown sweep config 'quik'. Did you mean 'quick'"
     ):
         config_file("quik", "sweep")
-    with pytest.raises(UnknownNameError, match=r"Valid train configs: ppo\.$"):
+    with pytest.raises(UnknownNameError, match=r"Valid train configs: ppo, ppo-time\.$"):
         config_file("quick", "train")
 
 

@@ -30,16 +30,17 @@ def test_a_pipe_in_a_cell_splits_no_cell_in_plain_text_or_code():
     ]
 
 
-def test_twelve_policies_get_twelve_colours_and_the_shipped_ones_a_fixed_order():
+def test_every_shipped_policy_and_one_of_yours_get_their_own_colours_in_a_fixed_order():
     from matplotlib.colors import to_rgb
 
     from nbv_gym.policies import MODELS, PAPER_POLICIES, REFERENCE_POLICIES
     from nbv_gym.reporting.formatting import oracle_label, policy_colours
 
     shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS]
-    labels = [*reversed(shipped[:-2]), oracle_label(shipped[-2]), shipped[-1]]
-    colours = policy_colours(labels)
-    assert len(labels) == 12 and len(set(colours.values())) == 12
+    oracle = shipped.index("oracle-greedy")
+    labels = [*reversed(shipped[:oracle]), oracle_label(shipped[oracle]), *shipped[oracle + 1 :]]
+    colours = policy_colours([*labels, "mine:A"])
+    assert len(colours) == len(shipped) + 1 == len(set(colours.values()))
     rgb = [np.array(to_rgb(c)) for c in colours.values()]
     assert min(np.abs(a - b).sum() for i, a in enumerate(rgb) for b in rgb[i + 1 :]) > 0.3
     assert (

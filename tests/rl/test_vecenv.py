@@ -94,6 +94,7 @@ def test_attributes_methods_and_wrappers(lean_envs):
     assert lean_envs.has_attr("action_masks") and not lean_envs.has_attr("no_such_attribute")
     assert lean_envs.env_is_wrapped(EpisodeMonitor) == [True, True]
     assert lean_envs.env_is_wrapped(Monitor) == [False, False]  # nor does it import SB3
+    lean_envs.reset()  # the module's environments may not have run an episode yet (xdist)
     masks = lean_envs.env_method("action_masks", indices=[0])
     assert len(masks) == 1 and masks[0].dtype == np.int8 and masks[0].any()
 

@@ -153,6 +153,16 @@ def test_every_test_folder_names_a_subpackage():
     assert folders <= subpackages, f"test folders without a subpackage: {folders - subpackages}"
 
 
+#: The longest a module may grow (lines): past it, split the concept it holds.
+MAX_MODULE_LINES = 600
+
+
+def test_no_module_is_longer_than_the_limit():
+    lines = {name: len(path.read_text().splitlines()) for name, path in modules().items()}
+    long = {name: n for name, n in lines.items() if n > MAX_MODULE_LINES}
+    assert not long, f"modules over {MAX_MODULE_LINES} lines (split them): {long}"
+
+
 def documented_layers() -> list[tuple[str, ...]]:
     """The layer table of docs/api/index.md: the subpackages of each row, lowest first."""
     rows = []

@@ -30,84 +30,15 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.benchmark.entry import RANK_SPLITS, SPLIT_COLUMNS, SPLITS, Entry, ranked
+from nbv_gym.benchmark.figures import save_profiles, save_q_time
 from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
-from nbv_gym.benchmark.suites import HEADLINE_SPLIT
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
-
-#: The splits whose score ranks the table, the first a scorecard has: the time task's test split,
-#: else (a suite on your own worlds, ``nbv-gym score --world``, has no test split) the time task
-#: on its worlds.
-RANK_SPLITS = (HEADLINE_SPLIT, "time-benchmark")
-#: The splits shown, in order (the scores table's columns, the profile figure's panels), with
-#: the label of their score and what it charges.
-SPLITS = {
-    "time-test": "area under Q(t) / budget, test split (equal robot time)",
-    "time-benchmark": "area under Q(t) / budget, benchmark worlds (equal robot time)",
-    "test": "Q after the scans, test split (equal scans, travel free)",
-    "benchmark": "Q after the scans, benchmark worlds (equal scans, travel free)",
-    "explore": "Q_paper at 70 % discovered (the paper's protocol)",
-}
-#: Short column titles of :data:`SPLITS`.
-SPLIT_COLUMNS = {
-    "time-test": "equal time, test: IQM area under Q(t)",
-    "time-benchmark": "equal time, benchmark: IQM area under Q(t)",
-    "test": "equal scans (travel free), test: IQM Q",
-    "benchmark": "equal scans (travel free), benchmark: IQM Q",
-    "explore": "paper's protocol: IQM Q_paper@70 %",
-}
 
 
 class LeaderboardError(NbvGymError):
     """Scorecards that cannot be put on one leaderboard; the message says which and why."""
-
-
-@dataclass(frozen=True)
-class Entry:
-    """One scorecard on the board: its ``label``, the ``card`` and where it came from
-    (``source``: a path, or ``"references"``)."""
-
-    label: str
-    card: dict[str, Any]
-    source: str
-
-    @property
-    def reference(self) -> bool:
-        """Whether the entry is a shipped reference scorecard."""
-        return self.source == "references"
-
-    @property
-    def oracle(self) -> bool:
-        """Whether the entry's policy reads privileged values (an oracle, ranked apart)."""
-        return bool(self.card["policy"]["oracle"])
-
-    @property
-    def rank_split(self) -> str:
-        """The split that ranks the entry: the first of :data:`RANK_SPLITS` its card has."""
-        return rank_split(self.card)
-
-    def aggregates(self, split: str | None = None) -> dict[str, Any]:
-        """The aggregates of ``split`` (default: :attr:`rank_split`; {} if missing)."""
-        return self.card["aggregates"].get(split or self.rank_split, {})
-
-    def metric(self, split: str | None = None) -> str:
-        """The score of ``split`` (its aggregates' ``metric``; ``q`` if the split is missing)."""
-        return self.aggregates(split).get("metric", "q")
-
-    def effort(self, split: str | None = None) -> dict[str, Any]:
-        """The ``effort`` aggregates of ``split`` ({} if missing)."""
-        return self.aggregates(split).get("effort") or {}
-
-    def score(self, split: str | None = None) -> float:
-        """The IQM of ``split``'s score (NaN if undefined or the split is missing)."""
-        value = self.aggregates(split).get("all", {}).get("iqm")
-        return np.nan if value is None else float(value)
-
-    def runs(self, split: str, metric: str) -> tuple[np.ndarray, list[tuple[str, int]]]:
-        """(n,) values of ``metric`` over ``split``'s runs (NaN for null) and their tasks."""
-        runs = [r for r in self.card["runs"] if r["split"] == split]
-        values = np.array([np.nan if r[metric] is None else r[metric] for r in runs], float)
-        return values, [(r["world"], r["noise"]) for r in runs]
 
 
 def gather(paths: list[str | Path], references: bool, suite: str | None = None) -> list[Entry]:
@@ -200,11 +131,6 @@ def _check_shipped_suite(card: dict[str, Any], path: Path) -> None:
     )
 
 
-def rank_split(card: dict[str, Any]) -> str:
-    """The first of :data:`RANK_SPLITS` the scorecard ``card`` has (the first if none)."""
-    return next((s for s in RANK_SPLITS if s in card["aggregates"]), RANK_SPLITS[0])
-
-
 def _no_references(suite: str) -> str:
     from nbv_gym.benchmark.references import reference_suites
 
@@ -240,19 +166,6 @@ def check_comparable(entries: list[Entry]) -> None:
 def _sources(sources: list[str]) -> str:
     unique = list(dict.fromkeys(sources))
     return unique[0] if len(unique) == 1 else f"{unique[0]} and {len(unique) - 1} more"
-
-
-def ranked(entries: list[Entry]) -> tuple[list[Entry], list[Entry]]:
-    """(non-oracles, oracles), each sorted by :meth:`Entry.score`, best first (undefined last)."""
-
-    def key(entry: Entry) -> tuple[bool, float]:
-        score = entry.score()
-        return (np.isnan(score), -score if not np.isnan(score) else 0.0)
-
-    return (
-        sorted((e for e in entries if not e.oracle), key=key),
-        sorted((e for e in entries if e.oracle), key=key),
-    )
 
 
 def baseline(entries: list[Entry]) -> Entry:
@@ -547,72 +460,3 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
 
 def _fmt(value: Any, spec: str) -> str:
     return "—" if value is None or not np.isfinite(value) else format(value, spec)
-
-
-def save_q_time(entries: list[Entry], path: Path) -> Path:
-    """Draw mean Q against elapsed time on the ranking split per entry, with the interquartile
-    band (the scorecards' ``effort.q_time``), to ``path`` (PNG) and its SVG twin."""
-    from nbv_gym.benchmark.curves import TIME_GRID_S
-    from nbv_gym.reporting.formatting import figure, policy_colours
-    from nbv_gym.reporting.html import save_figure
-
-    players, oracles = ranked(entries)
-    ordered = [*players, *oracles]
-    colours = policy_colours([e.label for e in ordered])
-    fig = figure(6.4, 4.4)
-    ax = fig.subplots()
-    for entry in ordered:
-        curve = entry.effort().get("q_time")
-        if not curve:
-            continue
-        colour, style = colours[entry.label], "--" if entry.oracle else "-"
-        ax.plot(
-            TIME_GRID_S, curve["mean"], style, color=colour, label=printable(entry.label), lw=1.4
-        )
-        ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
-    ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
-    ax.set_ylabel(f"Q ({ordered[0].rank_split} split, mean and interquartile band)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
-    return save_figure(fig, path)
-
-
-def save_profiles(entries: list[Entry], path: Path) -> Path:
-    """Draw the performance profiles of every entry (one panel per :data:`SPLITS`) to
-    ``path`` (PNG) and its SVG twin."""
-    from nbv_gym.reporting.formatting import figure, policy_colours
-    from nbv_gym.reporting.html import save_figure
-    from nbv_gym.reporting.inference import performance_profile
-
-    players, oracles = ranked(entries)
-    ordered = [*players, *oracles]
-    colours = policy_colours([e.label for e in ordered])
-    fig = figure(5.0 * len(SPLITS), 4.4)
-    axes = fig.subplots(1, len(SPLITS), squeeze=False)[0]
-    for ax, (split, label) in zip(axes, SPLITS.items(), strict=True):
-        metric = entries[0].card["aggregates"].get(split, {}).get("metric", "q")
-        data = {e.label: e.runs(split, metric) for e in ordered}
-        finite = np.concatenate([v[np.isfinite(v)] for v, _ in data.values()] + [np.zeros(1)])
-        tau = np.linspace(0.0, finite.max() * 1.05 or 1.0, 200)
-        for entry in ordered:
-            values, tasks = data[entry.label]
-            if not np.isfinite(values).any():
-                continue
-            rng = np.random.default_rng(0)
-            fraction, low, high = performance_profile(values, tasks, tau, rng)
-            style = "--" if entry.oracle else "-"
-            colour = colours[entry.label]
-            ax.plot(tau, fraction, style, color=colour, label=printable(entry.label), lw=1.4)
-            ax.fill_between(tau, low, high, color=colour, alpha=0.15, linewidth=0)
-        ax.set_xlabel(f"τ ({label})")
-        ax.set_ylim(0, 1.02)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("fraction of runs with score > τ")
-    handles = {}  # every policy once, from whichever panel drew it (a split may lack its runs)
-    for ax in axes:
-        handles.update({label: h for h, label in zip(*ax.get_legend_handles_labels(), strict=True)})
-    if handles:
-        axes[-1].legend(handles.values(), handles.keys(), fontsize=7, loc="upper right")
-    fig.tight_layout()
-    return save_figure(fig, path)

@@ -220,7 +220,7 @@ def summary(
 
 def write_scorecard(card: dict[str, Any], out: Path) -> tuple[Path, Path]:
     """Write ``scorecard.json`` (strict JSON) and ``scorecard.md`` into ``out``; their paths."""
-    from nbv_gym.sweep.folder import write_text
+    from nbv_gym.core.outputs import write_text
 
     json_path, md_path = out / "scorecard.json", out / "scorecard.md"
     write_text(json_path, dumps_strict(card))

@@ -95,8 +95,8 @@ def write_world_specs(suite: Suite, folder: Path) -> dict[str, str]:
     """Write the generated worlds of ``suite`` as spec files into ``folder``; world name → what
     a sweep config names it by (a benchmark name, or the written file's path)."""
     from nbv_gym.core.config import to_dict
+    from nbv_gym.core.outputs import write_text
     from nbv_gym.sweep.config import dumps_toml
-    from nbv_gym.sweep.folder import write_text
 
     sources = {}
     for part in suite.parts:

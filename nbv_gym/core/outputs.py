@@ -6,6 +6,8 @@ second, not after the whole episode or sweep), and the rules that keep results f
   folder and ``sweep`` a run's, naming it, so neither overwrites the other's files.
 - A command that replaces its own earlier results writes into a temporary sibling and swaps the
   files in only when it finished (:func:`staged_folder`): a crash leaves the earlier files intact.
+- Files are written atomically (:func:`write_text`, :class:`atomic`, :func:`write_together`):
+  to a temporary sibling, renamed into place once complete.
 - :func:`describe_os_error` turns a failed write (full disk, no permission, a file where a folder
   should be) into one line that names the path; the CLI's error boundary uses it.
 """
@@ -20,6 +22,7 @@ import threading
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from nbv_gym.core.errors import NbvGymError
 
@@ -195,3 +198,50 @@ def describe_os_error(error: OSError) -> str:
     reason = _OS_REASONS.get(error.errno, _why(error))
     path = error.filename or (f"writing {_last_output[0]}" if _last_output else None)
     return f"{path}: {reason}." if path else f"cannot read or write a file: {reason}."
+
+
+def write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (temporary file, then rename)."""
+    with atomic(path, "w") as f:
+        f.write(text)
+
+
+class atomic:
+    """Open a temporary sibling of ``path`` for writing and rename it onto ``path`` on success."""
+
+    def __init__(self, path: Path, mode: str):
+        self.path, self.mode = Path(path), mode
+        self.temporary = temporary(self.path)
+
+    def __enter__(self):
+        self.file = open(self.temporary, self.mode)
+        return self.file
+
+    def __exit__(self, kind, value, trace) -> None:
+        self.file.close()
+        if kind is None:
+            os.replace(self.temporary, self.path)
+        else:
+            self.temporary.unlink(missing_ok=True)
+
+
+def write_together(writers: dict[Path, tuple[str, Any]]) -> None:
+    """Write several files, each by ``write(file)`` opened in ``mode``, to temporary names, and
+    put them in place only when all were written (tables that must agree)."""
+    written = []
+    try:
+        for path, (mode, write) in writers.items():
+            written.append(temporary(path))
+            with open(written[-1], mode) as f:
+                write(f)
+    except BaseException:
+        for partial in written:
+            partial.unlink(missing_ok=True)
+        raise
+    for path, complete in zip(writers, written, strict=True):
+        os.replace(complete, path)
+
+
+def temporary(path: Path) -> Path:
+    """The temporary sibling ``<name>.tmp<pid>`` a file is written to before it is renamed."""
+    return path.with_name(f"{path.name}.tmp{os.getpid()}")

@@ -39,7 +39,7 @@ from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.inputs import InputFileError, open_input, read_json
 from nbv_gym.core.jsonfiles import dumps_json
-from nbv_gym.core.outputs import claim_folder
+from nbv_gym.core.outputs import atomic, claim_folder, write_text, write_together
 from nbv_gym.sweep.config import RunSpec, SweepConfig, dumps_toml, world_name
 from nbv_gym.sweep.schema import (
     CUBOIDS,
@@ -62,7 +62,7 @@ OPTIONAL_RUN_COLUMNS = ("total_time_s", "decision_time_s", "error", "oracle")
 STEP_TABLE_COLUMNS = names(STEPS)
 #: Columns of ``cuboids.parquet`` (``cov_p*_d*``: one per coverage setting of the run's config).
 CUBOID_COLUMNS = names(CUBOIDS)
-#: Names of this module's temporary files: ``<name>.tmp<pid>`` (see :class:`_atomic`).
+#: Names of this module's temporary files: ``<name>.tmp<pid>`` (:func:`~nbv_gym.core.outputs.temporary`).
 _TEMPORARY = re.compile(r"^.+\.(json|npz|csv|parquet|toml)\.tmp(\d+)$")
 
 
@@ -238,7 +238,7 @@ class ResultStore:
     def write_run(self, spec: RunSpec, outcome: dict[str, Any]) -> None:
         """Write a finished run: cuboids first, then the JSON that marks it finished."""
         stem = spec.file_stem
-        with _atomic(self.runs_dir / f"{stem}.cuboids.npz", "wb") as f:
+        with atomic(self.runs_dir / f"{stem}.cuboids.npz", "wb") as f:
             np.savez_compressed(f, **outcome["cuboids"])
         record = {"run": outcome["run"], "steps": outcome["steps"]}
         write_text(self.runs_dir / f"{stem}.json", dumps_json(record, indent=None))
@@ -323,7 +323,7 @@ class ResultStore:
         steps = pd.DataFrame(step_rows, columns=list(STEP_TABLE_COLUMNS))
         paths = {name: self.root / f"{name}.{ext}" for name, ext in _TABLES}
         manifest: dict[str, Any] = {"files": self._record_files()}
-        _write_together(
+        write_together(
             {
                 paths["cuboids"]: (
                     "wb",
@@ -463,52 +463,6 @@ def _name_or_stem(world: str) -> str:
         return world_name(world)
     except NbvGymError:
         return Path(world).stem
-
-
-def write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (temporary file, then rename)."""
-    with _atomic(path, "w") as f:
-        f.write(text)
-
-
-class _atomic:
-    """Open a temporary sibling of ``path`` for writing and rename it onto ``path`` on success."""
-
-    def __init__(self, path: Path, mode: str):
-        self.path, self.mode = Path(path), mode
-        self.temporary = _temporary(self.path)
-
-    def __enter__(self):
-        self.file = open(self.temporary, self.mode)
-        return self.file
-
-    def __exit__(self, kind, value, trace) -> None:
-        self.file.close()
-        if kind is None:
-            os.replace(self.temporary, self.path)
-        else:
-            self.temporary.unlink(missing_ok=True)
-
-
-def _write_together(writers: dict[Path, tuple[str, Any]]) -> None:
-    """Write several files, each by ``write(file)`` opened in ``mode``, to temporary names, and
-    put them in place only when all were written (tables that must agree)."""
-    written = []
-    try:
-        for path, (mode, write) in writers.items():
-            written.append(_temporary(path))
-            with open(written[-1], mode) as f:
-                write(f)
-    except BaseException:
-        for temporary in written:
-            temporary.unlink(missing_ok=True)
-        raise
-    for path, temporary in zip(writers, written, strict=True):
-        os.replace(temporary, path)
-
-
-def _temporary(path: Path) -> Path:
-    return path.with_name(f"{path.name}.tmp{os.getpid()}")
 
 
 def _cannot_write(path: Path, error: OSError) -> str:

@@ -8,8 +8,8 @@ from dataclasses import replace
 
 import pytest
 
+from nbv_gym.benchmark.entry import Entry, ranked
 from nbv_gym.benchmark.leaderboard import (
-    Entry,
     LeaderboardError,
     baseline,
     build_leaderboard,
@@ -17,7 +17,6 @@ from nbv_gym.benchmark.leaderboard import (
     improvement,
     leaderboard_summary,
     pareto_dominated,
-    ranked,
 )
 from nbv_gym.benchmark.references import references_pending
 from nbv_gym.benchmark.scorecard import build_scorecard, dumps_strict

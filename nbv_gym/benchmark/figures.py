@@ -1,0 +1,80 @@
+"""The leaderboard's figures: mean Q against elapsed time per policy with its interquartile
+band, and performance profiles per split."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from nbv_gym.benchmark.entry import SPLITS, Entry, ranked
+from nbv_gym.reporting.formatting import printable
+
+
+def save_q_time(entries: list[Entry], path: Path) -> Path:
+    """Draw mean Q against elapsed time on the ranking split per entry, with the interquartile
+    band (the scorecards' ``effort.q_time``), to ``path`` (PNG) and its SVG twin."""
+    from nbv_gym.benchmark.curves import TIME_GRID_S
+    from nbv_gym.reporting.formatting import figure, policy_colours
+    from nbv_gym.reporting.html import save_figure
+
+    players, oracles = ranked(entries)
+    ordered = [*players, *oracles]
+    colours = policy_colours([e.label for e in ordered])
+    fig = figure(6.4, 4.4)
+    ax = fig.subplots()
+    for entry in ordered:
+        curve = entry.effort().get("q_time")
+        if not curve:
+            continue
+        colour, style = colours[entry.label], "--" if entry.oracle else "-"
+        ax.plot(
+            TIME_GRID_S, curve["mean"], style, color=colour, label=printable(entry.label), lw=1.4
+        )
+        ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
+    ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
+    ax.set_ylabel(f"Q ({ordered[0].rank_split} split, mean and interquartile band)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+def save_profiles(entries: list[Entry], path: Path) -> Path:
+    """Draw the performance profiles of every entry (one panel per :data:`SPLITS`) to
+    ``path`` (PNG) and its SVG twin."""
+    from nbv_gym.reporting.formatting import figure, policy_colours
+    from nbv_gym.reporting.html import save_figure
+    from nbv_gym.reporting.inference import performance_profile
+
+    players, oracles = ranked(entries)
+    ordered = [*players, *oracles]
+    colours = policy_colours([e.label for e in ordered])
+    fig = figure(5.0 * len(SPLITS), 4.4)
+    axes = fig.subplots(1, len(SPLITS), squeeze=False)[0]
+    for ax, (split, label) in zip(axes, SPLITS.items(), strict=True):
+        metric = entries[0].card["aggregates"].get(split, {}).get("metric", "q")
+        data = {e.label: e.runs(split, metric) for e in ordered}
+        finite = np.concatenate([v[np.isfinite(v)] for v, _ in data.values()] + [np.zeros(1)])
+        tau = np.linspace(0.0, finite.max() * 1.05 or 1.0, 200)
+        for entry in ordered:
+            values, tasks = data[entry.label]
+            if not np.isfinite(values).any():
+                continue
+            rng = np.random.default_rng(0)
+            fraction, low, high = performance_profile(values, tasks, tau, rng)
+            style = "--" if entry.oracle else "-"
+            colour = colours[entry.label]
+            ax.plot(tau, fraction, style, color=colour, label=printable(entry.label), lw=1.4)
+            ax.fill_between(tau, low, high, color=colour, alpha=0.15, linewidth=0)
+        ax.set_xlabel(f"τ ({label})")
+        ax.set_ylim(0, 1.02)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("fraction of runs with score > τ")
+    handles = {}  # every policy once, from whichever panel drew it (a split may lack its runs)
+    for ax in axes:
+        handles.update({label: h for h, label in zip(*ax.get_legend_handles_labels(), strict=True)})
+    if handles:
+        axes[-1].legend(handles.values(), handles.keys(), fontsize=7, loc="upper right")
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -35,7 +35,7 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
     ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
     ax.set_ylabel(f"Q ({ordered[0].rank_split} split, mean and interquartile band)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="upper left")  # the curves rise from the lower left
     fig.tight_layout()
     return save_figure(fig, path)
 

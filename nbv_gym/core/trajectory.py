@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
 
 from nbv_gym.core.arrays import FloatArray
+from nbv_gym.core.inputs import MAX_TABLE_BYTES, read_input
 
 TRAJECTORY_NAME = "trajectory.csv"
 TRAJECTORY_COLUMNS = ("step", "x_m", "y_m", "z_m", "yaw_rad")
@@ -27,6 +29,8 @@ def write_trajectory(path: str | Path, poses) -> Path:
 
 
 def read_trajectory(path: str | Path) -> FloatArray:
-    """(k, 4) x, y, z (m) and yaw (rad) of each scan from a :func:`write_trajectory` CSV."""
-    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    """(k, 4) x, y, z (m) and yaw (rad) of each scan from a :func:`write_trajectory` CSV (a
+    regular file: a FIFO or device is refused, :class:`~nbv_gym.core.inputs.InputFileError`)."""
+    data = read_input(path, "trajectory", MAX_TABLE_BYTES)
+    table = np.loadtxt(io.BytesIO(data), delimiter=",", skiprows=1, ndmin=2)
     return table[:, 1:5]

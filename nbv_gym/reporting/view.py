@@ -89,7 +89,7 @@ def load_scene(
     world = world or summary.get("world")
     truth = _ground_truth(world, max_points, rng) if world else None
     trajectory = folder / TRAJECTORY_NAME if folder else None
-    poses = read_trajectory(trajectory) if trajectory and trajectory.is_file() else None
+    poses = read_trajectory(trajectory) if trajectory and trajectory.exists() else None
     title = _title(source, summary, len(voxels), keep.size)
     return Scene(voxels[keep], values[keep], label, truth, poses, title)
 

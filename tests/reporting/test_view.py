@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
 
 from nbv_gym.core.grid import GridSpec
+from nbv_gym.core.inputs import InputFileError
 from nbv_gym.core.pose import Pose
 from nbv_gym.core.trajectory import read_trajectory, write_trajectory
 from nbv_gym.mapping import OccupancyMap, ViewpointStatistics
@@ -43,6 +45,13 @@ def run_folder(tmp_path):
 def test_trajectory_round_trip(tmp_path):
     path = write_trajectory(tmp_path / "t.csv", [Pose(1.0, 2.0, 0.5, 0.25), Pose(-3.0, 4.0, 0.0)])
     np.testing.assert_allclose(read_trajectory(path), [[1, 2, 0.5, 0.25], [-3, 4, 0, 0]])
+
+
+def test_a_run_whose_trajectory_is_not_a_regular_file_is_refused_without_blocking(run_folder):
+    (run_folder / "trajectory.csv").unlink()
+    os.mkfifo(run_folder / "trajectory.csv")  # reading it would wait for a writer forever
+    with pytest.raises(InputFileError, match=r"trajectory .* is not a regular file \(a FIFO\)"):
+        load_scene(run_folder)
 
 
 def test_scene_holds_the_occupied_voxels_above_the_ground_the_path_and_the_truth(run_folder):

@@ -101,12 +101,6 @@ def current_references(
     ]
 
 
-def references_pending() -> bool:
-    """Whether some shipped reference scorecard is stale (:func:`is_current`): the references
-    of this protocol version are still to be generated."""
-    return bool(current_references()[1])
-
-
 def pending_note(stale: list[dict[str, Any]], suite: str = REFERENCE_SUITE.name) -> str:
     """One sentence saying that references of ``suite`` for this protocol version are pending,
     naming the versions the ``stale`` ones were scored under ("" if none is stale)."""

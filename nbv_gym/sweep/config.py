@@ -214,6 +214,10 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
     return read_sweep_config(path)[0]
 
 
+# Keys that only one task reads: under another task, their defaults go unmentioned.
+TASK_KEYS = {"max_steps": "explore", "budget_scans": "budget", "time_budget_s": "time"}
+
+
 def read_sweep_config(path: str | Path) -> tuple[SweepConfig, dict[str, Any]]:
     """:func:`load_sweep_config`, and the defaults it filled in for keys the file left out."""
     path = Path(path)
@@ -231,7 +235,11 @@ def read_sweep_config(path: str | Path) -> tuple[SweepConfig, dict[str, Any]]:
         config = from_dict(SweepConfig, data)
     except ConfigError as error:
         raise ConfigError(f"{path}: {error}") from None
-    filled = {k: v for k, v in to_dict(config).items() if k not in data and k != "env"}
+    filled = {
+        key: value
+        for key, value in to_dict(config).items()
+        if key not in data and key != "env" and TASK_KEYS.get(key, config.task) == config.task
+    }
     return config, filled
 
 

@@ -11,7 +11,7 @@ import pytest
 from nbv_gym.configs import KINDS, config_file, shipped_configs
 from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.rl.config import load_train_config
-from nbv_gym.sweep.config import load_sweep_config
+from nbv_gym.sweep.config import load_sweep_config, read_sweep_config
 
 SWEEPS = {"quick", "paper", "rl-eval", "nbv-visibility", "references"}
 
@@ -30,6 +30,16 @@ def test_every_shipped_config_has_a_kind_and_loads_as_one():
     for name in SWEEPS:
         assert load_sweep_config(config_file(name, "sweep")).name == name
     assert load_train_config(config_file("ppo", "train")).task == "budget"
+
+
+def test_a_shipped_sweep_sets_every_key_its_task_reads_so_it_prints_no_defaults(tmp_path):
+    for name in SWEEPS:  # the README's first command prints no note about left-out keys
+        assert read_sweep_config(config_file(name, "sweep"))[1] == {}, name
+    spec = tmp_path / "b.toml"  # a budget sweep leaves the other tasks' lengths unmentioned
+    spec.write_text('worlds = ["pp1-trees"]\npolicies = ["random-free"]\ntask = "budget"\n')
+    assert set(read_sweep_config(spec)[1]) == {
+        "noise", "repeats", "seed", "budget_scans", "retries", "run_timeout_s"
+    }  # fmt: skip
 
 
 def test_a_path_is_taken_as_a_path_and_a_missing_one_is_named(tmp_path):

@@ -18,6 +18,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import gymnasium
 import pytest
 import typer
 
@@ -199,6 +200,15 @@ def test_the_checker_catches_a_stale_path_a_stale_flag_and_an_unknown_config():
 
 def stated_versions(text: str) -> list[str]:
     return re.findall(r"Python ≥ (3\.\d+)", text)
+
+
+def test_the_environment_page_and_the_notebook_name_every_registered_id_and_its_count():
+    ids = sorted(i for i in gymnasium.registry if i.startswith("nbv_gym/"))
+    words = {2: "two", 3: "three", 4: "four", 5: "five"}
+    for page in (ROOT / "docs/environment.md", ROOT / "docs/tutorials/getting-started.ipynb"):
+        text = page.read_text()
+        assert f"registers {words[len(ids)]} " in text, page
+        assert all(f"`{i}`" in text for i in ids), page
 
 
 def test_docs_state_the_python_version_that_pyproject_requires():

@@ -93,21 +93,21 @@ def _check_same_policy(out: Path, policy: str) -> None:
 
 def write_world_specs(suite: Suite, folder: Path) -> dict[str, str]:
     """Write the generated worlds of ``suite`` as spec files into ``folder``; world name → what
-    a sweep config names it by (a benchmark name, or the written file's path)."""
+    a sweep config names it by (a benchmark name, your spec file, or the written file's path)."""
     from nbv_gym.core.config import to_dict
     from nbv_gym.core.outputs import write_text
     from nbv_gym.sweep.config import dumps_toml
 
     sources = {}
     for part in suite.parts:
-        for world in part.worlds:
+        for name, world in zip(part.world_names, part.worlds, strict=True):
             if isinstance(world, WorldSpec):
                 folder.mkdir(parents=True, exist_ok=True)
-                path = folder / f"{world.name}.toml"
+                path = folder / f"{name}.toml"
                 write_text(path, dumps_toml(to_dict(world)))
-                sources[world.name] = str(path.resolve())
+                sources[name] = str(path.resolve())
             else:
-                sources[world] = world
+                sources[name] = world
     return sources
 
 

@@ -36,7 +36,7 @@ from typing import Any
 
 from nbv_gym.benchmark.testsplit import split_worlds
 from nbv_gym.core.config import to_dict
-from nbv_gym.core.errors import UnknownNameError
+from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.protocol import (
     BUDGET_SCANS,
     EXPLORE_MAX_STEPS,
@@ -91,8 +91,9 @@ class Part:
 
     @property
     def world_names(self) -> tuple[str, ...]:
-        """The names of the part's worlds, in order."""
-        return tuple(w.name if isinstance(w, WorldSpec) else w for w in self.worlds)
+        """The names of the part's worlds, in order: what its runs record (a spec file's by
+        the ``name`` it holds, not by its path)."""
+        return tuple(spec.name for spec in self.specs())
 
     @property
     def runs(self) -> int:
@@ -156,8 +157,15 @@ class Suite:
         on the benchmark worlds (budget, explore, time), with those worlds, noise levels and
         repeats; not its parts on the generated test split (the benchmark's own held-out
         worlds). Another suite: its scorecards rank apart."""
-        for world in worlds:
-            load_spec(world)  # a bad world fails before any run
+        names: dict[str, str] = {}
+        for world in worlds:  # a bad world fails before any run
+            name = load_spec(world).name
+            if name in names:
+                raise ConfigError(
+                    f"{names[name]} and {world} are both named {name!r}: a suite's runs are "
+                    "told apart by world name; give one of them another name."
+                )
+            names[name] = world
         parts = tuple(
             replace(part, worlds=tuple(worlds))
             for part in self.parts

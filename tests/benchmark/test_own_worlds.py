@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from nbv_gym.benchmark.suites import QUICK
-from nbv_gym.core.errors import NbvGymError
+from nbv_gym.benchmark.leaderboard import gather
+from nbv_gym.benchmark.scoring import score_policy
+from nbv_gym.benchmark.suites import QUICK, Part, Suite
+from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.worlds import load_spec
 from tests.helpers import write_tiny_world
 
@@ -28,3 +30,20 @@ def test_a_suite_on_your_worlds_keeps_its_parts_on_the_benchmark_worlds(tmp_path
 def test_a_bad_world_fails_before_any_run(tmp_path):
     with pytest.raises(NbvGymError, match="does not exist"):
         QUICK.with_worlds((str(tmp_path / "missing.toml"),))
+
+
+def test_two_world_files_of_one_name_are_refused(tmp_path):
+    a, b = (str(write_tiny_world(tmp_path, name)) for name in ("a.toml", "b.toml"))
+    with pytest.raises(ConfigError, match=r"are both named 'tiny-cuboids'"):
+        QUICK.with_worlds((a, b))
+
+
+def test_a_scorecard_on_your_world_file_passes_the_leaderboards_checks(tmp_path):
+    spec = str(write_tiny_world(tmp_path))  # the file tiny.toml holds the world tiny-cuboids
+    part = Part("time-benchmark", "time", ("pp1-cuboids",), (0,), repeats=1, time_budget_s=20.0)
+    own = Suite("tiny", (part,), seed=0).with_worlds((spec,))
+    card = score_policy("closest-frontier", own, tmp_path / "score", workers=1, progress=False)
+    assert card["suite"]["parts"][0]["worlds"] == ["tiny-cuboids"]
+    assert [run["world"] for run in card["runs"]] == ["tiny-cuboids"]
+    [entry] = gather([tmp_path / "score" / "scorecard.json"], references=False)
+    assert entry.rank_split == "time-benchmark"

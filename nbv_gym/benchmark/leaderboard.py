@@ -370,7 +370,7 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
             ),
             "Effort behind the score (time task, test split; IQM [95 % interval] and means per "
             "run; Pareto: dominated by a policy with as high an IQM of Q at the budget for as short "
-            "a mean path, one strictly):",
+            "a mean path to the metre, one strictly):",
             markdown_table(
                 effort,
                 [_effort_row(r, e, dominated) for r, e in zip(ranks, entries, strict=True)],
@@ -382,13 +382,15 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
 def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
     """Entry label → the label of an entry that dominates it on (IQM of Q at the time budget,
     mean path) of the ranking split, the figures the effort table shows: Q ≥ and path ≤, one of
-    them strictly. Entries without those figures are left out."""
+    them strictly. Paths are compared to the metre, as the table shows them (a goal cell is
+    1 m: a few centimetres of mean path are no less effort). Entries without those figures are
+    left out."""
     points = {}
     for entry in entries:
         means = entry.aggregates().get("means", {})
         q, path = entry.effort().get("q_at_budget", {}).get("iqm"), means.get("path_length_m")
         if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
-            points[entry.label] = (q, path)
+            points[entry.label] = (q, round(path))
     out = {}
     for label, (q, path) in points.items():
         for other, (q2, path2) in points.items():

@@ -183,16 +183,18 @@ def test_the_board_ranks_by_the_time_task_marks_the_pareto_front_and_draws_q_t(
         write(tmp_path, card(tiny_suite, "near", 0.3, path_m=10.0)),
         write(tmp_path, card(tiny_suite, "far", 0.5, path_m=300.0)),
         write(tmp_path, card(tiny_suite, "worse", 0.2, path_m=50.0)),  # near: more Q, less path
+        write(tmp_path, card(tiny_suite, "cm-shorter", 0.25, path_m=9.96)),  # the same metre
     ]
     entries = gather(paths, references=False)
-    assert [e.metric() for e in entries] == ["q_time_auc"] * 3
-    assert pareto_dominated(entries) == {"worse": "near"}
+    assert [e.metric() for e in entries] == ["q_time_auc"] * 4
+    assert pareto_dominated(entries) == {"worse": "near", "cm-shorter": "near"}
     markdown = build_leaderboard(paths, False, tmp_path / "board").markdown
     text = markdown.read_text()
     assert (
         text.index("| 1 | **`far`**")
         < text.index("| 2 | **`near`**")
-        < text.index("| 3 | **`worse`**")
+        < text.index("| 3 | **`cm-shorter`**")
+        < text.index("| 4 | **`worse`**")
     )
     assert "dominated by `near`" in text and text.count("| front |") == 2
     assert "equal time, test: IQM area under Q(t)" in text and "equal scans (travel free)" in text

@@ -41,10 +41,6 @@ PENDING: dict[str, dict[str, str]] = {
         "about 7 CPU-hours; score it on a cluster: python -m nbv_gym.benchmark.references "
         "oracle-greedy --scheduler ADDRESS",
     },
-    "quick": {
-        "oracle-greedy": "each decision scans 64 candidates: the quick suite's runs take about "
-        "1.5 CPU-hours; python -m nbv_gym.benchmark.references oracle-greedy --suite quick",
-    },
 }
 
 

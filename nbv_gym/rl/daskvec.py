@@ -196,13 +196,30 @@ class DaskVecEnv(ProtocolVecEnv):
         return self._answers(self._send(group, call.command, call.batch))
 
     def _result(self, future, worker: str):
-        """``future``'s result; :class:`_WorkerLost` once ``worker`` has left the cluster."""
+        """``future``'s result; :class:`_WorkerLost` once ``worker`` has left the cluster, or
+        when the call failed because the worker is closing under it (a cluster scaled down
+        answers "cannot schedule new futures after shutdown")."""
         while True:
             try:
                 return future.result(timeout=POLL_S)
             except TimeoutError:
                 if worker not in self.client.nthreads():
                     raise _WorkerLost from None
+            except Exception as error:  # the environments' own errors come as answers
+                if self._leaving(worker):
+                    raise _WorkerLost from error
+                raise
+
+    def _leaving(self, worker: str) -> bool:
+        """Whether the scheduler lists ``worker`` as gone or closing within :data:`POLL_S`."""
+        deadline = time.monotonic() + POLL_S
+        while True:
+            workers = self.client.scheduler_info(n_workers=-1)["workers"]
+            if workers.get(worker, {}).get("status") != "running":
+                return True
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.2)
 
     def _rebuild(self, lost: _Group, reset: bool) -> _Group:
         """Build ``lost``'s environments again on the least loaded remaining worker; with

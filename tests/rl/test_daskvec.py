@@ -113,6 +113,33 @@ def test_a_cluster_without_workers_stops_with_the_error_and_a_saved_checkpoint(
     assert len(list((tmp_path / "checkpoints").glob("model_*_steps.zip"))) == 1
 
 
+class ClosingWorker:
+    """A call's future and a client as a worker closing under the call shows them: the call
+    fails with the worker's executor shut down, and the scheduler lists the worker as ``status``
+    (None: not at all)."""
+
+    def __init__(self, status: str | None):
+        self.status = status
+
+    def result(self, timeout):
+        raise RuntimeError("cannot schedule new futures after shutdown")
+
+    def scheduler_info(self, n_workers: int) -> dict:
+        return {"workers": {"tcp://w": {"status": self.status}} if self.status else {}}
+
+
+@pytest.mark.parametrize("status, lost", [(None, True), ("closing_gracefully", True),
+                                          ("running", False)])  # fmt: skip
+def test_a_call_that_fails_as_its_worker_closes_counts_as_the_worker_lost(status, lost):
+    """A cluster scaled down closes a worker under a call; that is a lost worker (its
+    environments rebuilt, or the no-worker error), while a failure on a worker that stays
+    running is an error of its own."""
+    envs = object.__new__(daskvec.DaskVecEnv)
+    envs.client = closing = ClosingWorker(status)
+    with pytest.raises(daskvec._WorkerLost if lost else RuntimeError):
+        envs._result(closing, "tcp://w")
+
+
 def test_a_scheduler_that_is_not_an_address_is_refused():
     with pytest.raises(ConfigError, match=r"scheduler: expected .*tcp://host:8786, got 'tpc'"):
         TrainConfig(scheduler="tpc")

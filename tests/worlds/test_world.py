@@ -202,7 +202,8 @@ def _rewrite_cache(path, **changes):
     ],
     ids=["shortened truth", "no truth", "moved mesh", "other layout", "digest", "spec"],
 )
-def test_a_tampered_cache_file_is_rebuilt_not_trusted(world_cache, tamper):
+def test_a_tampered_cache_file_is_rebuilt_not_trusted(tmp_path, monkeypatch, tamper):
+    monkeypatch.setenv("NBV_GYM_CACHE", str(tmp_path))  # its own: the cases run side by side
     spec = parse_spec(VALID_SPEC.replace("seed = 5", "seed = 43"), "tiny")
     built = load_world(spec)
     path = cache_path(spec)

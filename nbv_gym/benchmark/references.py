@@ -35,13 +35,7 @@ REFERENCE_SUITE = STANDARD
 #: reason. The leaderboard names them; a test keeps this honest for every suite that has
 #: references (no file for a pending policy, and every other shipped policy has one). Generate
 #: one with ``python -m nbv_gym.benchmark.references NAME --suite SUITE`` and delete its entry.
-PENDING: dict[str, dict[str, str]] = {
-    "standard": {
-        "oracle-greedy": "each decision scans 64 candidates: the standard suite's 612 runs take "
-        "about 7 CPU-hours; score it on a cluster: python -m nbv_gym.benchmark.references "
-        "oracle-greedy --scheduler ADDRESS",
-    },
-}
+PENDING: dict[str, dict[str, str]] = {}
 
 
 def pending(suite: str) -> dict[str, str]:

@@ -285,7 +285,7 @@ class Simulator:
         """The robot's ground pose after teleporting to ``goal``: its cell centre, heading along
         the move from the current pose."""
         x, y = self.goal_centres[goal]
-        yaw = float(np.arctan2(y - self.pose.y, x - self.pose.x))
+        yaw = math.atan2(y - self.pose.y, x - self.pose.x)
         return Pose(float(x), float(y), 0.0, yaw)
 
     def _observe(self, path_length_m: float) -> StepOutcome:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,7 @@ class Pose:
 
     def rotation(self) -> FloatArray:
         """(3, 3) float: the rotation from this pose's frame to the map frame."""
-        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
     def rotate(self, vectors: FloatArray) -> FloatArray:
@@ -37,7 +38,7 @@ class Pose:
         to the BLAS library, whose kernel (chosen by the CPU) may fuse multiply and add and
         change the last bit, so results would differ between machines."""
         vectors = np.asarray(vectors, dtype=float)
-        c, s = np.cos(self.yaw), np.sin(self.yaw)
+        c, s = math.cos(self.yaw), math.sin(self.yaw)  # the C library's: numpy's varies by CPU
         x, y = vectors[:, 0], vectors[:, 1]
         return np.stack((c * x - s * y, s * x + c * y, vectors[:, 2]), axis=1)
 

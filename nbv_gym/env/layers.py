@@ -4,6 +4,8 @@ NBV gains of the four viewpoint statistics, the volumetric gains (unknown voxels
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from nbv_gym.nbv import (
@@ -62,7 +64,7 @@ class OptionalLayers:
     def bounds(self) -> dict[str, float]:
         """Upper bound of each requested layer: a gain sums at most one cell gain (≤ ln(1 /
         floor) or the never-observed r_min) over every cell of G; the mean at most one."""
-        per_cell = max(np.log(1.0 / self.config.gain_floor), self.config.unobserved_r_min_m)
+        per_cell = max(math.log(1.0 / self.config.gain_floor), self.config.unobserved_r_min_m)
         cells = self.sim.goal_grid.size if self.config.aggregate == "sum" else 1
         bounds = {name: float(per_cell * cells) for name in self.gains}
         voxels = float(self.sim.goal_grid.size * self.totals.voxels_per_cell) if self.totals else 0

@@ -34,9 +34,12 @@ operations.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from gymnasium import spaces
 
+from nbv_gym.core import libm
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import Pose
 from nbv_gym.mapping import NavigationLayer, ViewpointStatistics
@@ -96,7 +99,7 @@ class Observer:
         self._centres = goal_grid.xy_centres().T.copy()  # (2, n_goals): x row, y row
         self._diagonal = float(np.hypot(*(goal_grid.high[:2] - goal_grid.low[:2])))  # no BLAS
         self._half = goal_grid.high[:2]
-        self._n_obs_scale = np.log1p(100 * goal_grid.shape[2])
+        self._n_obs_scale = math.log1p(100 * goal_grid.shape[2])
 
     def cost_high(self, cost_range_m: float) -> float:
         """The ``cost`` layer's upper bound with the navigation's ``cost_range_m``."""
@@ -130,7 +133,7 @@ class Observer:
         budget = self.time_budget_s
         progress = steps / self.max_steps if budget is None else min(elapsed_s / budget, 1.0)
         return np.array(
-            [pose.x / self._half[0], pose.y / self._half[1], np.cos(pose.yaw), np.sin(pose.yaw),
+            [pose.x / self._half[0], pose.y / self._half[1], math.cos(pose.yaw), math.sin(pose.yaw),
              discovered, progress],
             dtype=np.float32,
         )  # fmt: skip
@@ -149,7 +152,7 @@ class Observer:
 
     def _statistics_layers(self, stats: ViewpointStatistics, out: dict) -> None:
         """The four viewpoint statistics of G projected to 2D (see the module docstring)."""
-        n_obs = np.log1p(stats.column("n_obs")) / self._n_obs_scale
+        n_obs = libm.log1p(stats.column("n_obs")) / self._n_obs_scale
         out["n_obs"][:] = np.minimum(n_obs, 1.0).ravel()
         out["r_min"][:] = np.minimum(stats.column("r_min") / self.sensor_range_m, 1.0).ravel()
         out["n_omega"][:] = (stats.column("n_omega") / self.n_sectors).ravel()

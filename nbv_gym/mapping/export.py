@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from nbv_gym.core import libm
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.errors import NbvGymError
 
@@ -72,7 +73,7 @@ def _write_octomap(occupancy, path: Path) -> int:
     tree.setClampingThresMin(params["p_clamp_min"])
     tree.setClampingThresMax(params["p_clamp_max"])
     tree.setOccupancyThres(params["p_occupied"])
-    logodds = np.log(probability / (1.0 - probability)).astype(np.float32)
+    logodds = libm.log(probability / (1.0 - probability)).astype(np.float32)
     values, group = np.unique(logodds, return_inverse=True)
     order = np.argsort(group, kind="stable")
     bounds = np.searchsorted(group[order], np.arange(len(values) + 1))

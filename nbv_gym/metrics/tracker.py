@@ -341,23 +341,27 @@ def _levels(probabilities, thresholds, out):
         out[i] = level
 
 
-@njit(cache=True, fastmath={"reassoc", "nsz"})
+@njit(cache=True)
 def _scan_cuboid(prob, i0, j0, k0, n, low, high):
     """(observed, Σp in float64) of the cuboid with low voxel corner (i0, j0, k0).
 
-    The sum may be reassociated (vectorised): it is still a pure function of the cuboid, so a
-    cuboid recomputed alone gives the same bits as in a full pass.
+    The sum runs in a fixed order, whatever the CPU: one partial sum per k (the contiguous axis,
+    which vectorises without reassociating), then the n partial sums in k order. (A sum that the
+    compiler may reassociate varies with the CPU's vector width.)
     """
-    total = 0.0
+    partial = np.zeros(n)
     lowest = np.inf
     highest = -np.inf
     for i in range(i0, i0 + n):
         for j in range(j0, j0 + n):
-            for k in range(k0, k0 + n):
-                p = prob[i, j, k]
-                total += p
+            for k in range(n):
+                p = prob[i, j, k0 + k]
+                partial[k] += p
                 lowest = min(lowest, p)
                 highest = max(highest, p)
+    total = 0.0
+    for k in range(n):
+        total += partial[k]
     return lowest <= low or highest >= high, total
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from nbv_gym.core import libm
 from nbv_gym.core.arrays import BoolArray, FloatArray
 from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.cuboids import CuboidConfig, check_grids, cuboid_view, occupied_cuboids
@@ -39,7 +40,7 @@ def gibbs_kernel_1d(n: int, reg: float = 1.0) -> tuple[FloatArray, FloatArray]:
     """Per-axis ``(n, n)`` Gibbs kernel ``exp(−(a − c)² / reg)`` and the same times ``(a − c)²``."""
     idx = np.arange(n, dtype=np.float64)
     d2 = (idx[:, None] - idx[None, :]) ** 2
-    kernel = np.exp(d2 / -reg)
+    kernel = libm.exp(d2 / -reg)
     return kernel, kernel * d2
 
 

@@ -37,6 +37,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
+from nbv_gym.core import libm
 from nbv_gym.core.arrays import BoolArray, FloatArray
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
@@ -193,7 +194,7 @@ def realised_gains(
     n_b, n_a = b[:, _N_NEXT] - 1.0, a[:, _N_NEXT] - 1.0
     grew = n_a > n_b
     gains = {
-        "gain_nobs": np.log(n_a[grew] / np.maximum(n_b[grew], floor)).sum(),
+        "gain_nobs": libm.log(n_a[grew] / np.maximum(n_b[grew], floor)).sum(),
         "gain_rmin": np.maximum(b[:, _RMIN] - a[:, _RMIN], 0.0).sum(),
         "gain_nomega": _log_growth(b[:, _NOMEGA], a[:, _NOMEGA], floor),
         "gain_sigma": _log_growth(b[:, _SIGMA], a[:, _SIGMA], floor),
@@ -206,7 +207,7 @@ def _log_growth(before: np.ndarray, after: np.ndarray, floor: float) -> float:
     """Σ ``ln(max(a, f) / max(b, f))`` over the cells where the value grew (a > b)."""
     grew = after > before
     return float(
-        (np.log(np.maximum(after[grew], floor)) - np.log(np.maximum(before[grew], floor))).sum()
+        (libm.log(np.maximum(after[grew], floor)) - libm.log(np.maximum(before[grew], floor))).sum()
     )
 
 
@@ -236,7 +237,7 @@ def cell_table(
     mask = mask & np.uint32((1 << sensor.n_sectors) - 1)
     n_omega = _popcount(mask)
     table = np.empty((*shape, _N_COLUMNS))
-    table[..., _NOBS_GAIN] = np.log((n + 1.0) / np.maximum(n, floor))  # â = b + 1
+    table[..., _NOBS_GAIN] = libm.log((n + 1.0) / np.maximum(n, floor))  # â = b + 1
     table[..., _RMIN] = np.where(
         observed_r, np.minimum(np.where(observed_r, r, 0.0), config.unobserved_r_min_m),
         config.unobserved_r_min_m,
@@ -244,9 +245,9 @@ def cell_table(
     table[..., _SUM_U : _SUM_U + 3] = sum_u
     table[..., _N_NEXT] = n + 1.0
     table[..., _SIGMA] = sigma
-    table[..., _LN_SIGMA] = np.log(np.maximum(sigma, floor))
+    table[..., _LN_SIGMA] = libm.log(np.maximum(sigma, floor))
     table[..., _NOMEGA] = n_omega
-    table[..., _LN_NOMEGA] = np.log(np.maximum(n_omega, floor))
+    table[..., _LN_NOMEGA] = libm.log(np.maximum(n_omega, floor))
     table[..., _SECTORS] = mask
     return table.reshape(-1, _N_COLUMNS)
 
@@ -295,7 +296,7 @@ def _robot_azimuths(grid: GridSpec, robot_xy: FloatArray) -> tuple[np.ndarray, n
         raise NbvGymError(f"robot_xy must be finite, got {robot.tolist()}")
     centres = goal_centres_xy(grid).reshape(*grid.shape[:2], 2)
     offset = robot - centres
-    azimuth = np.mod(np.arctan2(offset[..., 1], offset[..., 0]), 2.0 * np.pi)
+    azimuth = np.mod(libm.arctan2(offset[..., 1], offset[..., 0]), 2.0 * np.pi)
     azimuth[azimuth >= 2.0 * np.pi] = 0.0
     return azimuth, np.hypot(offset[..., 0], offset[..., 1]) < 1e-9
 
@@ -307,7 +308,7 @@ def _first_sigma(config: NbvConfig) -> float:
 
 def _log_floor_table(floor: float) -> np.ndarray:
     """(33,) float64 ``ln(max(a, f))`` for a = 0 … 32 sectors."""
-    return np.log(np.maximum(np.arange(33, dtype=np.float64), floor))
+    return libm.log(np.maximum(np.arange(33, dtype=np.float64), floor))
 
 
 def _popcount(mask: np.ndarray) -> np.ndarray:

@@ -46,6 +46,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from nbv_gym.core import libm
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.mapping.statistics import StatisticsConfig
@@ -202,9 +203,9 @@ def _sight_lines(
             f"{sensor_height_m} m; check NbvConfig.min_range_m and sensor_range_m"
         )
     unit = to_sensor / range_m[:, None]
-    azimuth = np.mod(np.arctan2(to_sensor[:, 1], to_sensor[:, 0]), 2.0 * np.pi)
+    azimuth = np.mod(libm.arctan2(to_sensor[:, 1], to_sensor[:, 0]), 2.0 * np.pi)
     azimuth[azimuth >= 2.0 * np.pi] = 0.0
-    elevation = np.arcsin(np.clip(-unit[:, 2], -1.0, 1.0))  # of the line sensor → target
+    elevation = libm.arcsin(np.clip(-unit[:, 2], -1.0, 1.0))  # of the line sensor → target
     aimed = (elevation >= elevation_min - 1e-12) & (elevation <= elevation_max + 1e-12)
     width = 2 * reach + 1
     offsets, rays = _all_crossings(dx, dy, k, zs, nz, reach, CENTRE)

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.core import libm
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.nbv.predictor import CANDIDATES_LAYER
 from nbv_gym.policies.nbv import observation_layer, uniform_choice
@@ -86,7 +87,7 @@ class InformationGain:
         candidates = (observation_layer(observation, CANDIDATES_LAYER) > 0) & valid
         gain = observation_layer(observation, self.gain_layer).astype(np.float64)
         path_m = observation_layer(observation, "cost").astype(np.float64) * info["cost_range_m"]
-        return np.where(candidates, gain * np.exp(-self.lam * path_m), -np.inf)
+        return np.where(candidates, gain * libm.exp(-self.lam * path_m), -np.inf)
 
     def act(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> int:
         """The goal index of the best candidate (module docstring)."""

@@ -28,6 +28,8 @@ from stable_baselines3.common.policies import MultiInputActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
+from nbv_gym.core import libm
+
 STATE_KEY = "state"
 #: Channels of the full-resolution features (the goal scores' input).
 LOCAL_CHANNELS = 8
@@ -112,7 +114,7 @@ def _length(space: spaces.Space) -> int:
 def _log_highs(observation_space: spaces.Dict, keys: list[str]) -> th.Tensor:
     """Per layer: log1p(upper bound) where the bound exceeds 1, else 0 (the layer is in [0, 1])."""
     highs = np.array([float(np.max(cast(spaces.Box, observation_space[k]).high)) for k in keys])
-    return th.as_tensor(np.where(highs > 1, np.log1p(highs), 0.0), dtype=th.float32)
+    return th.as_tensor(np.where(highs > 1, libm.log1p(highs), 0.0), dtype=th.float32)
 
 
 def _local_cnn(channels: int) -> nn.Module:

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nbv_gym.core import libm
 from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import PoseError
@@ -141,7 +142,7 @@ class LidarConfig:
         azimuth = np.arange(self.n_azimuth) * (2 * np.pi / self.n_azimuth)
         el, az = np.meshgrid(elevation, azimuth, indexing="ij")
         return np.stack(
-            [np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1
+            [libm.cos(el) * libm.cos(az), libm.cos(el) * libm.sin(az), libm.sin(el)], axis=-1
         ).reshape(-1, 3)
 
 

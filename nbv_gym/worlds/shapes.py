@@ -7,10 +7,12 @@ counter-clockwise faces. Asset meshes stand on z = 0 around the vertical axis th
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
+from nbv_gym.core import libm
 from nbv_gym.core.arrays import FloatArray, IntArray
 
 Mesh = tuple[FloatArray, IntArray]
@@ -84,7 +86,7 @@ def transport_frames(path: FloatArray) -> tuple[FloatArray, FloatArray]:
 def regular_polygon(k: int, radius: float = 1.0) -> FloatArray:
     """(k, 2) counter-clockwise vertices of a regular k-gon of circumradius ``radius``."""
     angle = np.arange(k) * (2 * np.pi / k)
-    return radius * np.column_stack([np.cos(angle), np.sin(angle)])
+    return radius * np.column_stack([libm.cos(angle), libm.sin(angle)])
 
 
 def cuboid(size_m: float = 2.0, height_m: float = 2.0) -> Mesh:
@@ -117,7 +119,7 @@ def helicoid(
     t = np.linspace(0.0, 1.0, int(np.ceil(turns * samples_per_turn)) + 1)
     theta = 2 * np.pi * turns * t
     radius = radius_base_m + (radius_top_m - radius_base_m) * t
-    radial = np.column_stack([np.cos(theta), np.sin(theta), np.zeros_like(t)])
+    radial = np.column_stack([libm.cos(theta), libm.sin(theta), np.zeros_like(t)])
     path = radius[:, None] * radial + np.column_stack([np.zeros((len(t), 2)), height_m * t])
     tangent = _tangents(path)
     slant = (radius_top_m - radius_base_m) * radial + [0.0, 0.0, height_m]
@@ -142,7 +144,7 @@ def place(mesh: Mesh, xy: FloatArray, yaw: float, scale_xy: float, scale_z: floa
     """``mesh`` scaled by (``scale_xy``, ``scale_xy``, ``scale_z``), turned by ``yaw`` radians
     about the vertical axis and moved to ground position ``xy`` (2,) metres."""
     vertices, faces = mesh
-    c, s = np.cos(yaw), np.sin(yaw)
+    c, s = math.cos(yaw), math.sin(yaw)
     scaled = vertices * [scale_xy, scale_xy, scale_z]
     x, y = scaled[:, 0], scaled[:, 1]  # turned elementwise: a matrix product's BLAS kernel
     turned = np.stack((c * x - s * y, s * x + c * y, scaled[:, 2]), axis=1)  # varies by CPU
@@ -169,4 +171,4 @@ def _tangents(path: FloatArray) -> FloatArray:
 def _any_perpendicular(direction: FloatArray) -> FloatArray:
     helper = np.array([1.0, 0.0, 0.0]) if abs(direction[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     w = np.cross(direction, helper)
-    return w / np.linalg.norm(w)
+    return w / np.sqrt((w * w).sum())  # not np.linalg.norm: a BLAS dot for a vector

@@ -1,6 +1,8 @@
 """The package's import graph: every ``import`` of an ``nbv_gym`` module, at module level or
-inside a function, is an edge. The graph has no cycle, and every edge between subpackages
-points down the layer table (:data:`LAYERS`), so the tree reads in the order data flows."""
+inside a function, is an edge. The graph has no cycle, every edge between subpackages points
+down the layer table (:data:`LAYERS`), so the tree reads in the order data flows, and inside a
+package no subpackage imports back a module that imports it (0 imports run back up, inside
+subpackages too)."""
 
 from __future__ import annotations
 
@@ -111,6 +113,52 @@ def back_imports(graph: dict[str, set[str]]) -> list[str]:
     return wrong
 
 
+def child(module: str, package: str) -> str | None:
+    """What of ``package`` holds ``module``: the package itself (its ``__init__``), one of its
+    modules, or the subpackage the module lies in (``nbv_gym.worlds.scenes.files`` in
+    ``nbv_gym.worlds`` → ``nbv_gym.worlds.scenes``); None outside the package."""
+    if module == package:
+        return package
+    if not module.startswith(package + "."):
+        return None
+    return f"{package}.{module[len(package) + 1 :].split('.')[0]}"
+
+
+def inner_back_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Inside every package, with each of its subpackages drawn as one node: every edge
+    ``a → b`` from a subpackage's module ``a`` to a node that (directly or through others)
+    imports that subpackage — an import that runs back up from a subpackage into its parent."""
+    known = set(graph)
+    subpackages = {m for m in known if any(other.startswith(m + ".") for other in known)}
+    wrong = []
+    for package in sorted(subpackages):
+        inner: dict[str, set[str]] = {}
+        for module, targets in graph.items():
+            here = child(module, package)
+            if here is not None:
+                there = {child(t, package) for t in targets} - {None, here}
+                inner.setdefault(here, set()).update(t for t in there if t is not None)
+        for module, targets in sorted(graph.items()):
+            here = child(module, package)
+            if here == module or here not in subpackages:
+                continue  # a module or the __init__ of ``package``: its imports point down
+            for target in sorted(targets):
+                there = child(target, package)
+                if there not in (None, here) and here in reachable(inner, there):
+                    wrong.append(f"{module} → {target}")
+    return sorted(set(wrong))
+
+
+def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    """Every node ``start`` reaches in ``graph`` (itself included)."""
+    seen, todo = {start}, [start]
+    while todo:
+        for nxt in graph.get(todo.pop(), set()) - seen:
+            seen.add(nxt)
+            todo.append(nxt)
+    return seen
+
+
 def test_every_module_belongs_to_a_layer():
     assert {part(m) for m in import_graph()} <= set(RANK)
 
@@ -130,6 +178,21 @@ def test_a_planted_back_import_is_found():
         "nbv_gym.mapping.occupancy → nbv_gym.env.explore",
         "nbv_gym.sweep.config → nbv_gym.rl.config",
     ]
+
+
+def test_no_subpackage_imports_back_its_parent():
+    wrong = inner_back_imports(import_graph())
+    assert not wrong, "imports that run back up from a subpackage:\n" + "\n".join(wrong)
+
+
+def test_a_planted_back_import_inside_a_package_is_found():
+    graph = import_graph()
+    # a subpackage may use a module of its parent that does not import it back
+    assert "nbv_gym.worlds.shapes" in graph["nbv_gym.worlds.scenes.build"]
+    graph["nbv_gym.worlds.scenes.files"] = graph["nbv_gym.worlds.scenes.files"] | {
+        "nbv_gym.worlds.spec"  # spec imports scenes.spec
+    }
+    assert inner_back_imports(graph) == ["nbv_gym.worlds.scenes.files → nbv_gym.worlds.spec"]
 
 
 def test_the_package_imports_have_no_cycle():

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.benchmark.entry import SPLITS, Entry, ranked
+from nbv_gym.benchmark.ranking import SPLITS, Entry, ranked
 from nbv_gym.reporting.formatting import printable
 
 

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from nbv_gym.benchmark.entry import RANK_SPLITS, SPLIT_COLUMNS, SPLITS, Entry, ranked
 from nbv_gym.benchmark.figures import save_profiles, save_q_time
+from nbv_gym.benchmark.ranking import RANK_SPLITS, SPLIT_COLUMNS, SPLITS, Entry, ranked
 from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable

@@ -10,7 +10,7 @@ Regenerate them (after a change that moves results; a test says when) with::
         [--scheduler ADDRESS]
 
 which scores each named shipped policy (default: all of :func:`shipped_policies`) on the suite
-(default: standard) with :func:`~nbv_gym.benchmark.scoring.score_policy` into
+(default: standard) with :func:`~nbv_gym.benchmark.suiterun.score_policy` into
 ``DIR/<suite>/<name>/`` (resumable, default ``references-work``) and copies its
 ``scorecard.json`` into the suite's folder of the package.
 """
@@ -118,7 +118,7 @@ def regenerate(
     """Score each of ``names`` on ``suite`` into ``work/<suite>/<name>`` (locally, or on the Dask
     ``scheduler``) and copy the scorecard into the suite's reference folder; the written
     reference files."""
-    from nbv_gym.benchmark.scoring import score_policy
+    from nbv_gym.benchmark.suiterun import score_policy
 
     written = []
     (REFERENCE_DIR / suite.name).mkdir(parents=True, exist_ok=True)

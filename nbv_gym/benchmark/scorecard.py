@@ -119,7 +119,7 @@ def build_scorecard(
     suite: Suite, policy: dict[str, Any], runs: list[dict[str, Any]], timing: dict[str, Any]
 ) -> dict[str, Any]:
     """The scorecard of ``policy`` (:func:`policy_identity`) with the figures ``runs`` of every run
-    of ``suite`` (:func:`~nbv_gym.benchmark.scoring.run_figures`)."""
+    of ``suite`` (:func:`~nbv_gym.benchmark.suiterun.run_figures`)."""
     from nbv_gym.core.provenance import versions
 
     found = versions()

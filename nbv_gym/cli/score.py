@@ -73,7 +73,7 @@ def score(
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
     """
     from nbv_gym.benchmark.scorecard import interval_text
-    from nbv_gym.benchmark.scoring import score_policy
+    from nbv_gym.benchmark.suiterun import score_policy
     from nbv_gym.benchmark.suites import get_suite
     from nbv_gym.cli.sweep import resumable
     from nbv_gym.core.config import check

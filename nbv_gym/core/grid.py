@@ -17,6 +17,9 @@ from nbv_gym.core.errors import ConfigError, DataFileError
 
 #: The arrays :meth:`GridSpec.to_arrays` writes.
 GRID_ARRAYS = ("origin", "res", "shape")
+#: The longest side of a world's window, metres: the largest window the map's goal grid grows to
+#: (the mapping's ``max_window_m`` default); a larger world could not be mapped whole.
+MAX_WINDOW_M = 500.0
 
 
 def float_triple(values: Iterable[float]) -> tuple[float, float, float]:

@@ -130,10 +130,12 @@ class NavigationLayer:
         #: and occupied
         self.goal_fractions = np.zeros((3, *goal_grid.shape[:2]))
         self._cells_per_goal = round(goal_grid.res / cell_m)
-        self._reach = max(max(len(w) // 2, int(w.max())) for w in (
+        #: the farthest (nav cells) an erosion or dilation of a layer reaches from a cell
+        self._stencil_cells = max(max(len(w) // 2, int(w.max())) for w in (
             self._robot_widths, self._unknown_widths, self._occupied_widths))  # fmt: skip
         self.distance = np.full(shape, np.inf)
         self.robot_xy = np.zeros(2)
+        #: the longest path (metres) a valid goal may take (:meth:`limit_reach`; inf: no limit)
         self.reach_m = math.inf
         self._goals: _Goals | None = None
 
@@ -175,8 +177,8 @@ class NavigationLayer:
             box = (changed[0].min(), changed[0].max() + 1, changed[1].min(), changed[1].max() + 1)
         else:
             return
-        written = _grown(box, self._reach + 1, (nx, ny))  # every output that can change
-        window = _grown(written, self._reach + 1, (nx, ny))  # every input those depend on
+        written = _grown(box, self._stencil_cells + 1, (nx, ny))  # every output that can change
+        window = _grown(written, self._stencil_cells + 1, (nx, ny))  # every input those depend on
         part = (slice(window[0], window[1]), slice(window[2], window[3]))
         inner = (slice(written[0] - window[0], written[1] - window[0]),
                  slice(written[2] - window[2], written[3] - window[2]))  # fmt: skip

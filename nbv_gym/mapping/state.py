@@ -10,12 +10,12 @@ import numpy as np
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import NbvGymError
+from nbv_gym.core.grid import MAX_WINDOW_M
 from nbv_gym.mapping.navigation import NavigationConfig, NavigationLayer
 from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
 from nbv_gym.mapping.statistics import StatisticsConfig, ViewpointStatistics
 from nbv_gym.mapping.tally import CellTally
 from nbv_gym.sensor.lidar import SENSOR_RANGE_M, Scan
-from nbv_gym.worlds.spec import MAX_WINDOW_M
 
 
 @dataclass(frozen=True)

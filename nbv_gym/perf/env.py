@@ -1,4 +1,4 @@
-"""Bench suite of the environment on pp1-trees, noise 1, no optional layers, single thread.
+"""Perf suite of the environment on pp1-trees, noise 1, no optional layers, single thread.
 
 Keys of :func:`run`:
 - ``env_step_ms``: one env step (median over random valid goals).
@@ -27,7 +27,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-WORLD = "pp1-trees"
+from nbv_gym.perf import PERF_WORLD
+
 STEPS = 20
 RESETS = 5
 
@@ -52,13 +53,13 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     from nbv_gym.episode import run_episode
     from nbv_gym.policies import load_policy
 
-    env = ExploreEnv(world=WORLD, noise=1, max_steps=STEPS + 5)
-    progress(f"{RESETS} resets and {STEPS} env steps on {WORLD}")
+    env = ExploreEnv(world=PERF_WORLD, noise=1, max_steps=STEPS + 5)
+    progress(f"{RESETS} resets and {STEPS} env steps on {PERF_WORLD}")
     env.reset(seed=0)  # compiles and builds everything once
     resets = [_seconds(functools.partial(env.reset, seed=seed)) for seed in range(1, RESETS + 1)]
     figures = {"env_reset_ms": 1e3 * float(np.median(resets)), **_steps(env)}
-    progress(f"{STEPS} env steps on {WORLD} with the OS1-64 preset")
-    dense = ExploreEnv(world=WORLD, noise=1, max_steps=STEPS + 5, lidar="os1-64")
+    progress(f"{STEPS} env steps on {PERF_WORLD} with the OS1-64 preset")
+    dense = ExploreEnv(world=PERF_WORLD, noise=1, max_steps=STEPS + 5, lidar="os1-64")
     dense.reset(seed=0)
     os1_64 = _steps(dense)
     figures.update(
@@ -66,8 +67,8 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     )
     progress("memory of one environment in a fresh process")
     figures.update(_memory())
-    progress(f"a closest-frontier episode on {WORLD}")
-    episode = ExploreEnv(world=WORLD, noise=1)
+    progress(f"a closest-frontier episode on {PERF_WORLD}")
+    episode = ExploreEnv(world=PERF_WORLD, noise=1)
     result = run_episode(episode, load_policy("closest-frontier"), seed=0)
     figures.update(episode_s=result.wall_time_s, episode_steps=float(len(result.steps) - 1))
     return figures
@@ -106,7 +107,7 @@ def _time_parts(env, spent: dict[str, float] | None = None) -> dict[str, float]:
             for attribute in filter(None, path.split(".")):
                 owner = getattr(owner, attribute, None)
             method = getattr(owner, name, None)
-            if method is not None and not getattr(method, "bench_timed", False):
+            if method is not None and not getattr(method, "perf_timed", False):
                 setattr(owner, name, _timed(method, key, spent, running))
     return spent
 
@@ -122,7 +123,7 @@ def _timed(method, key: str, spent: dict[str, float], running: dict[str, int]):
             if not running[key]:
                 spent[key] = spent.get(key, 0.0) + time.perf_counter() - start
 
-    timed.__dict__["bench_timed"] = True
+    timed.__dict__["perf_timed"] = True
     return timed
 
 
@@ -137,7 +138,7 @@ def one_env_memory() -> None:
     """Print (JSON) this process's memory after one environment's 3 resets and 20 steps."""
     from nbv_gym.env import ExploreEnv
 
-    env = ExploreEnv(world=WORLD, noise=1, max_steps=STEPS + 5)
+    env = ExploreEnv(world=PERF_WORLD, noise=1, max_steps=STEPS + 5)
     for seed in range(3):
         _, info = env.reset(seed=seed)
     rng = np.random.default_rng(0)

@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from nbv_gym.perf import BENCH_WORLD, Progress
+from nbv_gym.perf import PERF_WORLD, Progress
 
 SCANS = 200
 
@@ -18,14 +18,14 @@ def run(progress: Progress) -> dict[str, float]:
     from nbv_gym.worlds import load_spec
     from nbv_gym.worlds.world import build_world, load_world
 
-    spec = load_spec(BENCH_WORLD)
+    spec = load_spec(PERF_WORLD)
     _warm_up_compiled_code()
-    progress(f"building {BENCH_WORLD} uncached (mesh + ground truth)")
+    progress(f"building {PERF_WORLD} uncached (mesh + ground truth)")
     build_s = _seconds(lambda: build_world(spec))
     load_world(spec)
     load_s = _seconds(lambda: load_world(spec))
     world = load_world(spec)
-    progress(f"{SCANS} scans on {BENCH_WORLD} ({len(world.faces)} triangles)")
+    progress(f"{SCANS} scans on {PERF_WORLD} ({len(world.faces)} triangles)")
     scan_rate, embree_rate = _scan_rates(world)
     return {
         "world_build_s": build_s,

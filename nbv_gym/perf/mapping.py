@@ -30,17 +30,17 @@ from nbv_gym.mapping.state import ExplorationState, MappingConfig
 from nbv_gym.sensor.lidar import Lidar, LidarConfig, Scan
 from nbv_gym.worlds.raycast import RayScene
 
-#: Robot ground poses (x, y, yaw) of the benchmark scans: a short walk around the start.
-BENCH_POSES = ((0.0, 0.0, 0.0), (2.0, 0.0, 0.5), (4.0, 1.0, 1.0), (3.0, 3.0, 1.5), (0.0, 3.0, 2.0),
+#: Robot ground poses (x, y, yaw) of the perf scans: a short walk around the start.
+PERF_POSES = ((0.0, 0.0, 0.0), (2.0, 0.0, 0.5), (4.0, 1.0, 1.0), (3.0, 3.0, 1.5), (0.0, 3.0, 2.0),
                (-2.0, 2.0, 2.5), (-3.0, 0.0, 3.0), (-2.0, -2.0, 3.5))  # fmt: skip
 
 UNKNOWN, FREE, OCCUPIED = np.int8(-1), np.int8(0), np.int8(1)
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
-    """Measure the five mapping bench keys; progress messages go to ``progress``."""
+    """Measure the five mapping perf keys; progress messages go to ``progress``."""
     config = MappingConfig()
-    scans = bench_scans(progress)
+    scans = perf_scans(progress)
     n_points = sum(len(s) for s in scans)
     progress(f"{len(scans)} scans, {n_points} returns")
     state = ExplorationState.from_config(config)
@@ -62,8 +62,8 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     }
 
 
-def bench_scans(progress: Callable[[str], None], n_scans: int = len(BENCH_POSES)) -> list[Scan]:
-    """Scans of ``pp1-trees`` from :data:`BENCH_POSES` (noise level 1, seeded), or of the synthetic
+def perf_scans(progress: Callable[[str], None], n_scans: int = len(PERF_POSES)) -> list[Scan]:
+    """Scans of ``pp1-trees`` from :data:`PERF_POSES` (noise level 1, seeded), or of the synthetic
     scene if the worlds are not available."""
     try:
         from nbv_gym.worlds import load_world
@@ -74,7 +74,7 @@ def bench_scans(progress: Callable[[str], None], n_scans: int = len(BENCH_POSES)
         progress("nbv_gym.worlds unavailable: using the synthetic scene")
         lidar = synthetic_lidar()
     rng = np.random.default_rng(0)
-    return [lidar.scan(Pose(x, y, 0.0, yaw), rng) for x, y, yaw in BENCH_POSES[:n_scans]]
+    return [lidar.scan(Pose(x, y, 0.0, yaw), rng) for x, y, yaw in PERF_POSES[:n_scans]]
 
 
 def synthetic_lidar(seed: int = 0, n_azimuth: int = 512) -> Lidar:

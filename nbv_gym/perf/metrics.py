@@ -15,7 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from nbv_gym.perf import BENCH_WORLD
+from nbv_gym.perf import PERF_WORLD
 
 SCANS = 10
 WD_CUBOIDS = 64
@@ -28,10 +28,10 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     from nbv_gym.metrics.cuboids import benchmark_grid
     from nbv_gym.worlds import load_world
 
-    world = load_world(BENCH_WORLD)
+    world = load_world(PERF_WORLD)
     grid = benchmark_grid()
     truth = world.ground_truth.occupancy(grid)
-    progress(f"incremental Q: {SCANS} scans on {BENCH_WORLD}")
+    progress(f"incremental Q: {SCANS} scans on {PERF_WORLD}")
     results = _q_update_ms(world, truth, grid)
     progress(f"WD_occ: {WD_CUBOIDS} cuboids batched vs POT on {POT_CUBOIDS}")
     results.update(_wd_ms(truth))

@@ -25,12 +25,12 @@ from nbv_gym.nbv.gains import GAIN_LAYERS, predict_gains
 from nbv_gym.nbv.predictor import CANDIDATES_LAYER, GainPredictor
 
 #: Robot ground poses (x, y, yaw) of the scans before the decision.
-BENCH_POSES = ((0.0, 0.0, 0.0), (2.0, 0.0, 0.5), (4.0, 1.0, 1.0), (3.0, 3.0, 1.5))
+PERF_POSES = ((0.0, 0.0, 0.0), (2.0, 0.0, 0.5), (4.0, 1.0, 1.0), (3.0, 3.0, 1.5))
 REPEATS = 5
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
-    """Measure the NBV bench keys; progress messages go to ``progress``."""
+    """Measure the NBV perf keys; progress messages go to ``progress``."""
     from nbv_gym.core.pose import Pose
     from nbv_gym.sensor.lidar import Lidar
     from nbv_gym.worlds import load_world
@@ -39,12 +39,12 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     lidar = Lidar.for_world(load_world("pp1-trees"), noise=1)
     rng = np.random.default_rng(0)
     state = ExplorationState.from_config(MappingConfig())
-    progress(f"{len(BENCH_POSES)} scans near the start")
-    updates = [state.apply(lidar.scan(Pose(x, y, 0.0, yaw), rng)) for x, y, yaw in BENCH_POSES]
+    progress(f"{len(PERF_POSES)} scans near the start")
+    updates = [state.apply(lidar.scan(Pose(x, y, 0.0, yaw), rng)) for x, y, yaw in PERF_POSES]
     predictor = GainPredictor(state.statistics.grid, NbvConfig(), state.occupancy.grid.res)
     for update in updates[:-1]:
         predictor.observe(state.occupancy, update.touched)
-    robot_xy = np.array(BENCH_POSES[-1][:2])
+    robot_xy = np.array(PERF_POSES[-1][:2])
     cost = state.navigation.goal_cost()
 
     def decide(gains: tuple[str, ...] = GAIN_LAYERS) -> dict[str, np.ndarray]:

@@ -1,4 +1,4 @@
-"""Bench suite of RL training on pp1-trees: ``train_steps_per_s`` and where its time goes.
+"""Perf suite of RL training on pp1-trees: ``train_steps_per_s`` and where its time goes.
 
 MaskablePPO training with the default config's ``n_envs`` and hyper-parameters, measured over
 :data:`UPDATES` updates after one warm-up update (worker start-up, compilation and world loading
@@ -20,12 +20,13 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 
-WORLD = "pp1-trees"
+from nbv_gym.perf import PERF_WORLD
+
 UPDATES = 2
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
-    """The suite's figures (module docstring) for MaskablePPO training on :data:`WORLD`."""
+    """The suite's figures (module docstring) for MaskablePPO training on :data:`PERF_WORLD`."""
     from nbv_gym.rl.config import TrainConfig
     from nbv_gym.rl.learner import prepare_learner
     from nbv_gym.rl.train import _create, make_vec_env, require_rl
@@ -33,15 +34,15 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     require_rl()
     from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv, TorchThreads
 
-    config = replace(TrainConfig(), train_worlds=(WORLD,), eval_worlds=())
+    config = replace(TrainConfig(), train_worlds=(PERF_WORLD,), eval_worlds=())
     threads = TorchThreads(*prepare_learner(config.torch_threads, config.n_envs))
     per_update = config.learning.n_steps * config.n_envs
     envs = TimedVecEnv(make_vec_env(config))
     try:
         model = _create(config, envs, verbose=0)
-        progress(f"MaskablePPO warm-up on {WORLD}: {config.n_envs} envs × {per_update} steps")
+        progress(f"MaskablePPO warm-up on {PERF_WORLD}: {config.n_envs} envs × {per_update} steps")
         model.learn(per_update, callback=threads)
-        progress(f"MaskablePPO training on {WORLD}: {UPDATES} updates of {per_update} steps")
+        progress(f"MaskablePPO training on {PERF_WORLD}: {UPDATES} updates of {per_update} steps")
         phases, envs.seconds = PhaseTimer(), 0.0
         start, steps = time.perf_counter(), model.num_timesteps
         model.learn(UPDATES * per_update, reset_num_timesteps=False, callback=[phases, threads])

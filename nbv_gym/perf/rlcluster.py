@@ -1,4 +1,4 @@
-"""Bench suite of training environments on a Dask cluster: env steps/s of a localhost
+"""Perf suite of training environments on a Dask cluster: env steps/s of a localhost
 LocalCluster of 2 worker processes (:class:`~nbv_gym.rl.daskvec.DaskVecEnv`, one actor per
 worker) against the local lean workers (:class:`~nbv_gym.rl.vecenv.LeanSubprocVecEnv`) with the
 same :data:`N_ENVS` environments of the default training config on pp1-trees.
@@ -20,7 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from nbv_gym.perf import BENCH_WORLD
+from nbv_gym.perf import PERF_WORLD
 
 N_ENVS = 2
 ROUNDS = 4
@@ -33,7 +33,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     from nbv_gym.rl.train import make_vec_env, require_rl
 
     require_rl()
-    config = replace(TrainConfig(), train_worlds=(BENCH_WORLD,), eval_worlds=(), n_envs=N_ENVS)
+    config = replace(TrainConfig(), train_worlds=(PERF_WORLD,), eval_worlds=(), n_envs=N_ENVS)
     progress(f"starting {N_ENVS} local lean workers and a LocalCluster of {N_ENVS} workers")
     paths = {
         "local": make_vec_env(config),

@@ -1,4 +1,4 @@
-"""Bench suite of how the environment's costs grow with the world: worlds of a 60, 120 and 240 m
+"""Perf suite of how the environment's costs grow with the world: worlds of a 60, 120 and 240 m
 window holding 50, 200 and 800 assets (the benchmark's asset density, the four asset types in
 equal shares, the cluster radius scaled with the window), generated here from specs.
 
@@ -36,7 +36,7 @@ RESETS = 3
 
 
 def spec_text(window_m: int, n_assets: int) -> str:
-    """The TOML spec of the bench's world of a ``window_m`` square window and ``n_assets``."""
+    """The TOML spec of the scale suite's world of a ``window_m`` square window and ``n_assets``."""
     half = window_m / 2
     return f"""
 name = "scale-{window_m}m"

@@ -1,5 +1,5 @@
 """Training callbacks of ``nbv-gym train`` (the episode log behind the learning curve, a
-wall-clock limit, torch's thread count per phase) and the timers of the RL bench suite
+wall-clock limit, torch's thread count per phase) and the timers of the RL perf suite
 (:mod:`nbv_gym.perf.rl`)."""
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 memory torch frees.
 
 :func:`prepare_learner` sets both up; ``nbv-gym train`` (:func:`~nbv_gym.rl.train.train`) and
-the RL bench suite call it before they build the model. Nothing here touches the environment
+the RL perf suite call it before they build the model. Nothing here touches the environment
 workers, whose map stores manage their pages themselves (:mod:`nbv_gym.mapping.store`).
 """
 

@@ -25,6 +25,12 @@ class Layout:
     variant: IntArray
 
 
+def empty_layout() -> Layout:
+    """The layout of a world without procedural assets."""
+    none = np.empty(0)
+    return Layout(np.empty((0, 2)), none, none, none, none.astype(np.int64), none.astype(np.int64))
+
+
 def cluster_points(placement: PlacementConfig, rng: np.random.Generator) -> FloatArray:
     """(n_assets, 2) points of pointpats' Poisson cluster process in the window."""
     from pointpats.random import cluster_poisson

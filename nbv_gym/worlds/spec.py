@@ -18,6 +18,7 @@ from typing import Any
 
 from nbv_gym.core.config import check, from_dict, parse_toml, read_text, to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError, missing_file
+from nbv_gym.core.grid import MAX_WINDOW_M
 from nbv_gym.core.names import check_name
 from nbv_gym.worlds.scenes.spec import SceneSpec, parse_scene_spec
 from nbv_gym.worlds.trees import TreeConfig
@@ -26,9 +27,6 @@ ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
 #: Upper bounds of the values that size a world's memory and build time (the benchmark worlds
 #: hold 50 assets from a library of 15 trees; 1000 assets in the 60 m window overlap already).
 MAX_ASSETS = 1000
-#: The longest side of a world's window, metres: the largest window the map's goal grid grows to
-#: (the mapping's ``max_window_m`` default); a larger world could not be mapped whole.
-MAX_WINDOW_M = 500.0
 MAX_TREE_LIBRARY = 100
 
 

@@ -24,8 +24,8 @@ from nbv_gym.core.progress import say, say_if_compiling
 from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.worlds import shapes
 from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
-from nbv_gym.worlds.placement import Layout, clear_start, layout
-from nbv_gym.worlds.scenes.build import SceneFrame, build_scene, empty_layout
+from nbv_gym.worlds.placement import Layout, clear_start, empty_layout, layout
+from nbv_gym.worlds.scenes.build import SceneFrame, build_scene
 from nbv_gym.worlds.scenes.spec import SceneSpec
 from nbv_gym.worlds.spec import ASSET_TYPES, AnySpec, WorldSpec, load_spec
 from nbv_gym.worlds.trees import grow_tree, tree_mesh

@@ -47,7 +47,7 @@ SCRIPT = """
 import json, sys
 import numpy as np
 from nbv_gym.benchmark.references import REFERENCE_SUITE
-from nbv_gym.benchmark.scoring import part_config, run_figures
+from nbv_gym.benchmark.suiterun import part_config, run_figures
 from nbv_gym.core.config import to_dict
 from nbv_gym.sweep.worker import RunTask, _run
 

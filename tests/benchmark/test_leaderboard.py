@@ -8,7 +8,6 @@ from dataclasses import replace
 
 import pytest
 
-from nbv_gym.benchmark.entry import Entry, ranked
 from nbv_gym.benchmark.leaderboard import (
     LeaderboardError,
     baseline,
@@ -18,6 +17,7 @@ from nbv_gym.benchmark.leaderboard import (
     leaderboard_summary,
     pareto_dominated,
 )
+from nbv_gym.benchmark.ranking import Entry, ranked
 from nbv_gym.benchmark.scorecard import build_scorecard, dumps_strict
 from nbv_gym.benchmark.suites import STANDARD
 

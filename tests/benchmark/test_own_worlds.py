@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from nbv_gym.benchmark.leaderboard import gather
-from nbv_gym.benchmark.scoring import score_policy
+from nbv_gym.benchmark.suiterun import score_policy
 from nbv_gym.benchmark.suites import QUICK, Part, Suite
 from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.worlds import load_spec

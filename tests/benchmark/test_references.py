@@ -144,7 +144,7 @@ RERUNS = (
 
 @pytest.mark.parametrize(("name", "split", "world", "noise", "repeat"), RERUNS)
 def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, noise, repeat):
-    from nbv_gym.benchmark.scoring import part_config, run_figures
+    from nbv_gym.benchmark.suiterun import part_config, run_figures
     from nbv_gym.core.config import to_dict
     from nbv_gym.sweep.worker import RunTask, _run
 

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import pytest
 
-from nbv_gym.benchmark.scoring import part_config, write_world_specs
+from nbv_gym.benchmark.suiterun import part_config, write_world_specs
 from nbv_gym.benchmark.suites import (
     BENCHMARK_WORLDS,
     HEADLINE_SPLIT,

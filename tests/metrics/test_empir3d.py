@@ -167,7 +167,7 @@ def _scene(count, rng):
     return np.where(kind[:, None] == 0, cylinder, box)
 
 
-def test_bench_chamfer_is_the_same_definition():
+def test_perf_chamfer_is_the_same_definition():
     from nbv_gym.perf.metrics import plain_chamfer
 
     rng = np.random.default_rng(1)

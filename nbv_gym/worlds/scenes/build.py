@@ -16,7 +16,6 @@ from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.worlds import shapes
 from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
-from nbv_gym.worlds.placement import Layout
 from nbv_gym.worlds.scenes.files import check_size, read_mesh, to_metres_z_up
 from nbv_gym.worlds.scenes.spec import SceneSpec
 
@@ -59,10 +58,10 @@ class BuiltScene:
     frame: SceneFrame
 
 
-def build_scene(spec: SceneSpec, res: float) -> BuiltScene:
-    """The scene of ``spec`` in the world frame, its ground truth at ``res`` metres."""
-    surface = scene_surface(spec, res)
-    vertices, truth, frame = place(spec, surface, res)
+def build_scene(spec: SceneSpec, resolution_m: float) -> BuiltScene:
+    """The scene of ``spec`` in the world frame, its ground truth at ``resolution_m`` metres."""
+    surface = scene_surface(spec, resolution_m)
+    vertices, truth, frame = place(spec, surface, resolution_m)
     faces = surface.faces
     scene_faces = len(faces)
     if spec.scene.ground == "add":
@@ -88,13 +87,13 @@ class Surface:
     voxels: IntArray | None = None
 
 
-def scene_surface(spec: SceneSpec, res: float) -> Surface:
+def scene_surface(spec: SceneSpec, resolution_m: float) -> Surface:
     """The :class:`Surface` of the scene file of ``spec``."""
     scene = spec.scene
     if scene.kind == "cloud":
         from nbv_gym.worlds.scenes.clouds import cloud_surface
 
-        return Surface(*cloud_surface(spec.path, scene.scale, scene.up, res))
+        return Surface(*cloud_surface(spec.path, scene.scale, scene.up, resolution_m))
     vertices, faces = read_mesh(spec.path)
     used = np.unique(faces)
     vertices = to_metres_z_up(vertices, scene.scale, scene.up)
@@ -103,19 +102,19 @@ def scene_surface(spec: SceneSpec, res: float) -> Surface:
 
 
 def place(
-    spec: SceneSpec, surface: Surface, res: float
+    spec: SceneSpec, surface: Surface, resolution_m: float
 ) -> tuple[FloatArray, GroundTruth, SceneFrame]:
     """The vertices in the world frame, the ground truth and the frame of a scene surface."""
     lifted = surface.vertices - [0.0, 0.0, surface.z0]
     if surface.voxels is None:
-        truth = surface_voxels(lifted, surface.faces, res)
+        truth = surface_voxels(lifted, surface.faces, resolution_m)
     else:
-        truth = GroundTruth(surface.voxels.astype(np.int32), res)
+        truth = GroundTruth(surface.voxels.astype(np.int32), resolution_m)
     low, high = lifted[:, :2].min(axis=0), lifted[:, :2].max(axis=0)
     start = _start(spec, truth, low, high)
-    shift = np.rint(np.asarray(start) / res).astype(np.int64)
-    offset = np.append(shift * res, 0.0)
-    truth = GroundTruth((truth.voxels - np.append(shift, 0)).astype(np.int32), res)
+    shift = np.rint(np.asarray(start) / resolution_m).astype(np.int64)
+    offset = np.append(shift * resolution_m, 0.0)
+    truth = GroundTruth((truth.voxels - np.append(shift, 0)).astype(np.int32), resolution_m)
     low = np.minimum(low - offset[:2], -MIN_WINDOW_M / 2)
     high = np.maximum(high - offset[:2], MIN_WINDOW_M / 2)
     margin = GROUND_MARGIN_M if spec.scene.ground == "add" else 0.0
@@ -177,9 +176,3 @@ def _clearance(truth: GroundTruth, low: FloatArray, high: FloatArray):
     free[index[:, 0] + 1, index[:, 1] + 1] = False
     distance = distance_transform_edt(free)[1:-1, 1:-1] * START_CELL_M
     return origin, distance - START_CELL_M * np.sqrt(0.5)
-
-
-def empty_layout() -> Layout:
-    """The layout of a world without procedural assets."""
-    none = np.empty(0)
-    return Layout(np.empty((0, 2)), none, none, none, none.astype(np.int64), none.astype(np.int64))

@@ -93,12 +93,12 @@ def _read_las(path: Path) -> FloatArray:
     return np.column_stack([data.x, data.y, data.z]).astype(np.float64)
 
 
-def cloud_voxels(points: FloatArray, res: float) -> IntArray:
+def cloud_voxels(points: FloatArray, resolution_m: float) -> IntArray:
     """(k, 3) int64 lattice indices (sorted, unique) of the voxels holding a point (metres)."""
-    return np.unique(np.floor(points / res).astype(np.int64), axis=0)
+    return np.unique(np.floor(points / resolution_m).astype(np.int64), axis=0)
 
 
-def cloud_surface(path: Path, scale: float, up: str, res: float):
+def cloud_surface(path: Path, scale: float, up: str, resolution_m: float):
     """The scene of a cloud: (V, 3) float64 vertices (metres, z up, file frame), (F, 3) int64
     triangles (the exposed voxel faces), the lowest point's z and the occupied voxels (k, 3)
     int64 of the frame lifted by it."""
@@ -106,17 +106,17 @@ def cloud_surface(path: Path, scale: float, up: str, res: float):
     check_size(path, points, scale)
     z0 = float(points[:, 2].min())
     points[:, 2] -= z0
-    voxels = cloud_voxels(points, res)
+    voxels = cloud_voxels(points, resolution_m)
     del points
-    vertices, faces = exposed_faces(voxels, res)
+    vertices, faces = exposed_faces(voxels, resolution_m)
     vertices[:, 2] += z0
     return vertices, faces, z0, voxels
 
 
-def exposed_faces(voxels: IntArray, res: float) -> tuple[FloatArray, IntArray]:
+def exposed_faces(voxels: IntArray, resolution_m: float) -> tuple[FloatArray, IntArray]:
     """(4m, 3) float64 vertices and (2m, 3) int64 triangles of the m faces the (k, 3) ``voxels``
-    share with an empty voxel, each set back by :data:`INSET` · ``res`` into its voxel (see the
-    module doc); outward-facing."""
+    share with an empty voxel, each set back by :data:`INSET` · ``resolution_m`` into its voxel
+    (see the module doc); outward-facing."""
     low = voxels.min(axis=0) - 1
     codes = _codes(voxels - low)
     quads = []
@@ -127,7 +127,7 @@ def exposed_faces(voxels: IntArray, res: float) -> tuple[FloatArray, IntArray]:
         found = np.searchsorted(codes, neighbour)
         found = np.minimum(found, len(codes) - 1)
         exposed = voxels[codes[found] != neighbour]
-        quads.append(_quads(exposed, axis, sign, res))
+        quads.append(_quads(exposed, axis, sign, resolution_m))
     corners = np.concatenate(quads)  # (m, 4, 3)
     m = len(corners)
     first = 4 * np.arange(m)[:, None]
@@ -140,7 +140,7 @@ def _codes(index: IntArray) -> IntArray:
     return (index[:, 0] << 42) | (index[:, 1] << 21) | index[:, 2]
 
 
-def _quads(voxels: IntArray, axis: int, sign: int, res: float) -> FloatArray:
+def _quads(voxels: IntArray, axis: int, sign: int, resolution_m: float) -> FloatArray:
     """(m, 4, 3) corners of the face of each voxel on side ``sign`` of ``axis``, set back, in
     counter-clockwise order seen from outside."""
     u, v = (axis + 1) % 3, (axis + 2) % 3
@@ -149,7 +149,7 @@ def _quads(voxels: IntArray, axis: int, sign: int, res: float) -> FloatArray:
         square = square[::-1]
     corners = np.empty((len(voxels), 4, 3))
     offset = (1.0 - INSET) if sign > 0 else INSET
-    corners[:, :, axis] = (voxels[:, axis, None] + offset) * res
-    corners[:, :, u] = (voxels[:, u, None] + square[None, :, 0]) * res
-    corners[:, :, v] = (voxels[:, v, None] + square[None, :, 1]) * res
+    corners[:, :, axis] = (voxels[:, axis, None] + offset) * resolution_m
+    corners[:, :, u] = (voxels[:, u, None] + square[None, :, 0]) * resolution_m
+    corners[:, :, v] = (voxels[:, v, None] + square[None, :, 1]) * resolution_m
     return corners

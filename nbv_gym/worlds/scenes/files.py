@@ -14,7 +14,7 @@ import numpy as np
 
 from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.errors import DataFileError
-from nbv_gym.worlds.spec import MAX_WINDOW_M
+from nbv_gym.core.grid import MAX_WINDOW_M
 
 #: The largest mesh read (triangles) and point cloud (points): ~1.3 GB of working memory for
 #: either at these sizes (docs/scenes.md).

@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 from nbv_gym.worlds import load_spec, shapes
-from nbv_gym.worlds.scenes.importer import summarise
+from nbv_gym.worlds.importer import summarise
 from tests.helpers import run_cli
 
 

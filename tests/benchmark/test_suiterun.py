@@ -19,7 +19,7 @@ from nbv_gym.benchmark.scorecard import (
     policy_identity,
     summary,
 )
-from nbv_gym.benchmark.scoring import ScoreError, score_policy
+from nbv_gym.benchmark.suiterun import ScoreError, score_policy
 from nbv_gym.benchmark.suites import PROTOCOL_VERSION
 from nbv_gym.core.errors import NbvGymError
 

@@ -1,10 +1,6 @@
-"""The command line as a user runs it: exit codes, messages, files and JSON."""
+"""``nbv-gym worlds`` as a user runs it: exit codes, messages and files."""
 
 from __future__ import annotations
-
-import json
-
-import pytest
 
 from tests.helpers import run_cli
 
@@ -36,13 +32,3 @@ def test_preview_writes_a_png(tmp_path):
     result = run_cli("worlds", "preview", "pp1-cuboids", "--out", str(out))
     assert result.returncode == 0, result.stderr
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-
-@pytest.mark.slow
-def test_bench_json_is_one_object_on_stdout():
-    result = run_cli("bench", "--json", "--suite", "foundation")
-    assert result.returncode == 0, result.stderr
-    figures = json.loads(result.stdout)
-    for key in ("world_build_s", "scan_rays_per_s", "embree_rays_per_s"):
-        assert figures[key] > 0
-    assert "building" in result.stderr

@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from nbv_gym.perf import BENCH_WORLD
+from nbv_gym.perf import PERF_WORLD
 
 WARMUP_STEPS = 4
 REPEATS = 5
@@ -30,7 +30,7 @@ ORACLE_REPEATS = 3
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
-    """Measure the reference policies' bench keys; progress messages go to ``progress``."""
+    """Measure the reference policies' perf keys; progress messages go to ``progress``."""
     results = {}
     for name, key, scale, repeats in (
         ("ig-unknown", "ig_unknown_decision_ms", 1e3, REPEATS),
@@ -38,7 +38,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
         ("frontier-tour", "frontier_tour_decision_ms", 1e3, REPEATS),
         ("oracle-greedy", "oracle_greedy_decision_s", 1.0, ORACLE_REPEATS),
     ):
-        progress(f"{name}: {WARMUP_STEPS} steps on {BENCH_WORLD}, then {repeats} decisions")
+        progress(f"{name}: {WARMUP_STEPS} steps on {PERF_WORLD}, then {repeats} decisions")
         wall, cpu = _decision_times(name, repeats)
         results[key] = scale * wall
         stem, _, unit = key.rpartition("_")
@@ -54,7 +54,7 @@ def _decision_times(name: str, repeats: int) -> tuple[float, float]:
 
     policy, warmup = load_policy(name), load_policy("ig-unknown")
     config = ExploreEnv(
-        world=BENCH_WORLD, task="budget", max_steps=12, observation_layers=warmup.observation_layers
+        world=PERF_WORLD, task="budget", max_steps=12, observation_layers=warmup.observation_layers
     ).config
     env = make_env(config, policy)
     observation, info = env.reset(seed=0)

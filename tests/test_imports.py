@@ -82,6 +82,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("env",),
     ("policies",),
     ("episode",),
+    ("team",),
     ("reporting",),
     ("sweep", "studies", "rl"),
     ("benchmark",),

@@ -1,5 +1,10 @@
 """The exploration simulator, free of Gymnasium: teleport → scan → update map, statistics and
-navigation → ΔQ (docs/protocol.md). The environment (:mod:`nbv_gym.env`) and the CLI wrap it."""
+navigation → ΔQ (docs/protocol.md). The environment (:mod:`nbv_gym.env`) and the CLI wrap it.
+
+What a team of robots shares — the world, the map, the statistics, the quality — is an
+:class:`Exploration`; what each robot owns is its :class:`~nbv_gym.core.robot.Robot`. The
+:class:`Simulator` is the team of one; :mod:`nbv_gym.team` runs several robots on one
+:class:`Exploration`."""
 
 from __future__ import annotations
 
@@ -16,6 +21,7 @@ from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import Pose
 from nbv_gym.core.progress import say_if_compiling
 from nbv_gym.core.protocol import EpisodeConfig, check_noise_level
+from nbv_gym.core.robot import Robot
 from nbv_gym.mapping import (
     ExplorationState,
     MappingConfig,
@@ -121,9 +127,14 @@ class StepOutcome:
     reason: str
 
 
-class Simulator:
-    """One robot exploring one world. ``reset(seed)`` starts an episode with the first scan;
-    ``step(goal)`` teleports to a goal cell, scans and updates everything."""
+class Exploration:
+    """What a team of robots shares exploring one world: the world and its lidar, the map, the
+    viewpoint statistics G and the navigation layer (:class:`ExplorationState`), and the map
+    quality. What each robot owns — pose, clock, noise generator — is its
+    :class:`~nbv_gym.core.robot.Robot`: :meth:`sense` scans from a robot's pose with its
+    generator into the shared map. The navigation layer is planned for one robot at a time, the
+    one that decides next (:meth:`sense` plans for the robot that scanned, :meth:`plan` for
+    another). :class:`Simulator` is the team of one."""
 
     def __init__(self, config: SimulatorConfig | None = None, world: World | None = None):
         config = config or SimulatorConfig()
@@ -146,15 +157,10 @@ class Simulator:
         thresholds = tuple(p for p, _ in self.config.quality.cov_settings)
         self._state = ExplorationState.from_config(self.config.mapping, band, thresholds)
         self.state: ExplorationState | None = None  # the episode's state; None before a reset
-        self.rng = np.random.default_rng()
-        self.pose = self._start_pose()
-        self.trajectory: list[Pose] = []
-        self.steps, self.path_length_m = 0, 0.0
         self._unobserved = self.summary = self.quality.summary()  # of every cuboid unobserved
-        self.ended = ""  # why the episode ended; "" while it runs
 
     def set_world(self, world: World) -> None:
-        """Explore ``world`` from the next :meth:`reset` on (e.g. a world distribution's next
+        """Explore ``world`` from the next reset on (e.g. a world distribution's next
         draw), keeping this simulator's grids and map arrays; the previous world's scene and
         ground truth are released. ConfigError unless its placement window lies in G."""
         self._check_world(world)
@@ -222,18 +228,6 @@ class Simulator:
         """The occupancy map of the current episode."""
         return self._state.occupancy
 
-    @property
-    def elapsed_s(self) -> float:
-        """The robot's clock: seconds spent since the first scan under the episode's effort model
-        (path driven / speed + scans after the first × scan time)."""
-        return self.config.episode.effort.elapsed_s(self.path_length_m, self.steps)
-
-    @property
-    def remaining_s(self) -> float:
-        """Seconds left of the episode's time budget (inf without one)."""
-        budget = self.config.episode.time_budget_s
-        return math.inf if budget is None else budget - self.elapsed_s
-
     def save(self, folder: str | Path) -> None:
         """Write the map (``map.npz``) and the statistics (``statistics.npz``) to ``folder``."""
         folder = Path(folder)
@@ -242,83 +236,49 @@ class Simulator:
         save_map(self.occupancy, folder / "map.npz", world)
         self.statistics.save(folder / "statistics.npz")
 
-    def reset(self, seed: int | None = None) -> StepOutcome:
-        """Start an episode at the start pose and take the first scan; randomness from ``seed``.
-        The map, statistics and quality arrays of the previous episode are cleared and reused."""
-        self.rng = np.random.default_rng(seed)
+    def clear(self) -> None:
+        """Start an episode's shared state: the map, statistics and quality arrays of the
+        previous episode are cleared and reused."""
         self._state.clear()
         self.state = self._state
         self.quality.reset()
-        self.pose = self._start_pose()
-        self.trajectory = [self.pose]
-        self.steps, self.path_length_m = 0, 0.0
         self.summary = self._unobserved
-        self.ended = ""
-        return self._observe(path_length_m=0.0)
 
-    def step(self, goal: int) -> StepOutcome:
-        """Teleport to ``goal`` (index into the goal grid), scan, update; raises
-        :class:`InvalidActionError` for a goal that is not a valid action now (see
-        :func:`goal_index`) and :class:`ResetNeededError` before a reset or after the end."""
-        if self.state is None:
-            raise ResetNeededError("Call reset() before step().")
-        if self.ended:
-            raise ResetNeededError(
-                f"The episode has ended ({self.ended}); call reset() before step() again."
-            )
-        goal = goal_index(goal, self.n_goals)
-        self._check_goal(goal)
-        path_length = float(self.state.navigation.goal_path_length()[goal])
-        self.pose = self.goal_pose(goal)
-        self.trajectory.append(self.pose)
-        self.steps += 1
-        self.path_length_m += path_length
-        outcome = self._observe(path_length)
-        self.ended = outcome.reason
-        return outcome
-
-    def goal_mask(self) -> np.ndarray:
-        """(n_goals,) bool: the goals that are valid actions now."""
-        return self._live.navigation.goal_mask()
-
-    def goal_pose(self, goal: int) -> Pose:
-        """The robot's ground pose after teleporting to ``goal``: its cell centre, heading along
-        the move from the current pose."""
-        x, y = self.goal_centres[goal]
-        yaw = math.atan2(y - self.pose.y, x - self.pose.x)
-        return Pose(float(x), float(y), 0.0, yaw)
-
-    def _observe(self, path_length_m: float) -> StepOutcome:
-        """Scan from the current pose, update map, statistics, navigation and quality."""
-        scan = self.lidar.scan(self.pose, self.rng)
+    def sense(self, robot: Robot, remaining_s: float) -> tuple[Scan, np.ndarray, float]:
+        """``robot`` scans from its pose with its generator: the map, statistics and quality
+        are updated, and the navigation layer planned for ``robot`` with ``remaining_s``
+        seconds left on its clock. The scan, the (nx, ny, nz) bool cells of G whose map voxels
+        it changed, and the change of Q."""
+        scan = self.lidar.scan(robot.pose, robot.rng)
         state = self._live
-        update = state.apply(scan, robot_xy=np.array([self.pose.x, self.pose.y]))
-        state.navigation.limit_reach(self.config.episode.effort.reach_m(self.remaining_s))
+        update = state.apply(scan, robot_xy=robot.xy)
+        state.navigation.limit_reach(self.config.episode.effort.reach_m(remaining_s))
         before = self.summary
         self.summary = self._update_quality(update.touched_cells)
-        delta_q = self.summary.q - before.q
-        reward = self._reward(delta_q, path_length_m)
-        discovered = state.navigation.discovered_fraction
-        terminated, truncated, reason = self._end(discovered)
-        return StepOutcome(
-            scan,
-            update.touched,
-            self.summary,
-            delta_q,
-            reward,
-            path_length_m,
-            discovered,
-            terminated,
-            truncated,
-            reason,
-        )
+        return scan, update.touched, self.summary.q - before.q
 
-    def _reward(self, delta_q: float, path_length_m: float) -> float:
-        """ΔQ, weighted in the time task by the share of the budget left (the robot holds the
-        gain that long: an episode's rewards, the first scan's included, sum to its area under
-        Q(t) over the budget), minus the path penalty."""
+    def plan(self, robot: Robot, remaining_s: float, excluded: np.ndarray) -> None:
+        """Plan the navigation layer for ``robot`` with ``remaining_s`` seconds left, the
+        (k,) goals ``excluded`` not valid (e.g. teammates' goals)."""
+        navigation = self._live.navigation
+        navigation.plan(robot.xy)
+        navigation.limit_reach(self.config.episode.effort.reach_m(remaining_s))
+        navigation.exclude_goals(excluded)
+
+    def pose_at(self, goal: int, origin: Pose) -> Pose:
+        """A robot's ground pose after teleporting from ``origin`` to ``goal``: its cell
+        centre, heading along the move."""
+        x, y = self.goal_centres[goal]
+        yaw = math.atan2(y - origin.y, x - origin.x)
+        return Pose(float(x), float(y), 0.0, yaw)
+
+    def reward(self, delta_q: float, path_length_m: float, remaining_s: float) -> float:
+        """ΔQ, weighted in the time task by the share of the budget left after the scan
+        (``remaining_s``; the robot holds the gain that long: an episode's rewards, the first
+        scan's included, sum to its area under Q(t) over the budget), minus the path
+        penalty."""
         episode = self.config.episode
-        held = 1.0 if episode.time_budget_s is None else self.remaining_s / episode.time_budget_s
+        held = 1.0 if episode.time_budget_s is None else remaining_s / episode.time_budget_s
         return delta_q * held - episode.path_penalty_per_m * path_length_m
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
@@ -327,38 +287,46 @@ class Simulator:
             raise NbvGymError("the quality update needs the map's cell totals")
         return update_quality(self.quality, state.tally, state.occupancy, self.goal_grid, touched)
 
-    def _end(self, discovered: float) -> tuple[bool, bool, str]:
+    def ending(self, robot: Robot, remaining_s: float) -> tuple[bool, bool, str]:
+        """Whether the episode ends for ``robot`` (the planned one, with ``remaining_s``
+        seconds left): terminated, truncated and why ("" while it runs)."""
         episode = self.config.episode
         target = episode.discovered_target
+        discovered = self._live.navigation.discovered_fraction
         if target is not None and discovered >= target:
             return True, False, f"discovered {discovered:.1%} ≥ {target:.0%}"
-        if self.steps >= episode.max_steps:
+        if robot.steps >= episode.max_steps:
             return False, True, f"reached max_steps = {episode.max_steps}"
-        if not self.goal_mask().any():
-            if self.remaining_s < math.inf and self._time_bound():
-                return False, True, f"time budget spent ({self.remaining_s:.1f} s left)"
+        if not self._live.navigation.goal_mask().any():
+            if remaining_s < math.inf and self._time_bound():
+                return False, True, f"time budget spent ({remaining_s:.1f} s left)"
             return False, True, "no valid goal is reachable"
         return False, False, ""
 
     def _time_bound(self) -> bool:
-        """Whether the time budget is what leaves no valid goal: some goal would be valid with
-        unlimited time."""
+        """Whether the time budget is what leaves no valid goal in the current plan: some goal
+        would be valid with unlimited time."""
         navigation = self._live.navigation
         return bool(navigation.goal_mask(limited=False).any())
 
-    def _check_goal(self, goal: int) -> None:
-        if self.goal_mask()[goal]:
+    def check_goal(self, goal: int, remaining_s: float) -> None:
+        """:class:`InvalidActionError` saying why unless ``goal`` is valid in the current plan
+        (with ``remaining_s`` seconds left on the planned robot's clock)."""
+        if self._live.navigation.goal_mask()[goal]:
             return
         x, y = self.goal_centres[goal]
         raise InvalidActionError(
             f"Goal {int(goal)} at ({x:.1f}, {y:.1f}) m is not valid now: "
-            f"{self._invalid_reason(int(goal))}. Choose a goal where info['action_mask'] is True."
+            f"{self._invalid_reason(int(goal), remaining_s)}. Choose a goal where "
+            "info['action_mask'] is True."
         )
 
-    def _invalid_reason(self, goal: int) -> str:
+    def _invalid_reason(self, goal: int, remaining_s: float) -> str:
         navigation = self._live.navigation
         if goal == navigation.robot_goal:
             return "it is the robot's own cell"
+        if goal in navigation.excluded_goals:
+            return "a teammate stands on it or drives to it"
         x, y = self.goal_centres[goal]
         (x0, y0), (x1, y1) = self.goal_grid.low[:2], self.goal_grid.high[:2]
         margin = self.config.mapping.navigation.border_margin_m
@@ -369,12 +337,11 @@ class Simulator:
             return "it is not known free space reachable from the robot"
         if path_m > navigation.reach_m:
             cost = self.config.episode.effort.elapsed_s(path_m, 1)
-            return (
-                f"driving there and scanning takes {cost:.1f} s, {self.remaining_s:.1f} s are left"
-            )
+            return f"driving there and scanning takes {cost:.1f} s, {remaining_s:.1f} s are left"
         return "it is not a valid goal"
 
-    def _start_pose(self) -> Pose:
+    def start_pose(self) -> Pose:
+        """The episode config's start pose (on the ground)."""
         episode = self.config.episode
         return Pose(*episode.start_xy_m, 0.0, episode.start_yaw_rad)
 
@@ -390,6 +357,110 @@ class Simulator:
         )
         voxels = world.ground_truth.grid_voxels(self.voxel_grid)
         return QualityTracker.from_voxels(voxels, self.voxel_grid.shape, config)
+
+
+class Simulator(Exploration):
+    """One robot exploring one world, the team of one (:class:`Exploration` holds what a team
+    shares, :attr:`robot` what the robot owns). ``reset(seed)`` starts an episode with the
+    first scan; ``step(goal)`` teleports to a goal cell, scans and updates everything."""
+
+    def __init__(self, config: SimulatorConfig | None = None, world: World | None = None):
+        super().__init__(config, world)
+        self.robot = Robot(self.start_pose())
+        self.ended = ""  # why the episode ended; "" while it runs
+
+    @property
+    def pose(self) -> Pose:
+        """The robot's pose."""
+        return self.robot.pose
+
+    @property
+    def rng(self) -> np.random.Generator:
+        """The robot's generator of localisation and range noise."""
+        return self.robot.rng
+
+    @property
+    def trajectory(self) -> list[Pose]:
+        """The robot's scan poses, the first scan's included."""
+        return self.robot.trajectory
+
+    @property
+    def steps(self) -> int:
+        """The robot's scans after the first one."""
+        return self.robot.steps
+
+    @property
+    def path_length_m(self) -> float:
+        """The robot's path, metres."""
+        return self.robot.path_length_m
+
+    @property
+    def elapsed_s(self) -> float:
+        """The robot's clock: seconds spent since the first scan under the episode's effort model
+        (path driven / speed + scans after the first × scan time)."""
+        return self.robot.elapsed_s(self.config.episode.effort)
+
+    @property
+    def remaining_s(self) -> float:
+        """Seconds left of the episode's time budget (inf without one)."""
+        episode = self.config.episode
+        return self.robot.remaining_s(episode.effort, episode.time_budget_s)
+
+    def reset(self, seed: int | None = None) -> StepOutcome:
+        """Start an episode at the start pose and take the first scan; randomness from ``seed``.
+        The map, statistics and quality arrays of the previous episode are cleared and reused."""
+        self.robot.reset(seed)
+        self.clear()
+        self.ended = ""
+        return self._observe(path_length_m=0.0)
+
+    def step(self, goal: int) -> StepOutcome:
+        """Teleport to ``goal`` (index into the goal grid), scan, update; raises
+        :class:`InvalidActionError` for a goal that is not a valid action now (see
+        :func:`goal_index`) and :class:`ResetNeededError` before a reset or after the end."""
+        if self.state is None:
+            raise ResetNeededError("Call reset() before step().")
+        if self.ended:
+            raise ResetNeededError(
+                f"The episode has ended ({self.ended}); call reset() before step() again."
+            )
+        goal = goal_index(goal, self.n_goals)
+        self.check_goal(goal, self.remaining_s)
+        path_length = float(self.state.navigation.goal_path_length()[goal])
+        self.robot.move(self.goal_pose(goal), path_length)
+        self.robot.goal = goal
+        outcome = self._observe(path_length)
+        self.ended = outcome.reason
+        return outcome
+
+    def goal_mask(self) -> np.ndarray:
+        """(n_goals,) bool: the goals that are valid actions now."""
+        return self._live.navigation.goal_mask()
+
+    def goal_pose(self, goal: int) -> Pose:
+        """The robot's ground pose after teleporting to ``goal``: its cell centre, heading along
+        the move from the current pose."""
+        return self.pose_at(goal, self.pose)
+
+    def _observe(self, path_length_m: float) -> StepOutcome:
+        """Scan from the current pose, update map, statistics, navigation and quality."""
+        remaining = self.remaining_s
+        scan, touched, delta_q = self.sense(self.robot, remaining)
+        reward = self.reward(delta_q, path_length_m, remaining)
+        discovered = self._live.navigation.discovered_fraction
+        terminated, truncated, reason = self.ending(self.robot, remaining)
+        return StepOutcome(
+            scan,
+            touched,
+            self.summary,
+            delta_q,
+            reward,
+            path_length_m,
+            discovered,
+            terminated,
+            truncated,
+            reason,
+        )
 
 
 def episode_memory_bytes(world: World, mapping: MappingConfig, n_scans: int) -> int:

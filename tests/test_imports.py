@@ -84,6 +84,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("env",),
     ("policies",),
     ("episode",),
+    ("team",),
     ("reporting",),
     ("sweep", "studies", "rl"),
     ("benchmark",),

@@ -11,7 +11,13 @@ from nbv_gym.mapping import ViewpointStatistics
 from nbv_gym.mapping.mapfile import load_map
 from nbv_gym.metrics.cuboids import QualityConfig
 from nbv_gym.metrics.tracker import evaluate_cuboids
-from nbv_gym.simulator import InvalidActionError, ResetNeededError, Simulator, SimulatorConfig
+from nbv_gym.simulator import (
+    Exploration,
+    InvalidActionError,
+    ResetNeededError,
+    Simulator,
+    SimulatorConfig,
+)
 
 WORLD = "pp1-cuboids"
 
@@ -52,6 +58,18 @@ def test_a_reset_reuses_the_arrays_and_replays_a_fresh_simulator_bit_for_bit(sim
     assert sim.occupancy._store is map_store  # no new map per episode
     assert episode(Simulator(SimulatorConfig(world=WORLD, noise=1)), seed=4) == played
     assert episode(sim, seed=5) != played
+
+
+def test_the_robot_owns_pose_path_clock_and_noise_and_the_rest_is_shared(sim):
+    sim.reset(2)
+    sim.step(int(np.flatnonzero(sim.goal_mask())[0]))
+    robot = sim.robot
+    assert isinstance(sim, Exploration) and sim.pose is robot.pose and sim.rng is robot.rng
+    assert sim.trajectory is robot.trajectory and (sim.steps, sim.path_length_m) == (
+        1,
+        robot.path_length_m,
+    )
+    assert sim.elapsed_s == sim.config.episode.effort.elapsed_s(robot.path_length_m, 1)
 
 
 def test_every_attribute_is_set_in_init():

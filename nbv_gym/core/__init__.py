@@ -1,3 +1,3 @@
 """Foundations every layer may use: errors, array aliases and checked array files, grids, poses,
-typed configs, tasks, provenance, output paths, point-cloud files and worker processes.
-Nothing here imports another subpackage of nbv-gym."""
+typed configs, tasks, what one robot owns, provenance, output paths, point-cloud files and worker
+processes. Nothing here imports another subpackage of nbv-gym."""

@@ -172,7 +172,7 @@ class ExploreEnv(gymnasium.Env):
             "speed_mps": speed_mps,
             "scan_time_s": scan_time_s,
         }
-        self.config = _resolve(
+        self.config = resolve_config(
             config, task, world, noise, max_steps, observation_layers, shortcuts, effort, lidar
         )
         self.render_mode = render_mode
@@ -322,7 +322,7 @@ def _pose_tuple(pose) -> tuple[float, float, float, float]:
     return pose.x, pose.y, pose.z, pose.yaw
 
 
-def _resolve(
+def resolve_config(
     config, task, world, noise, max_steps, observation_layers, shortcuts, effort, lidar=None
 ) -> EnvConfig:
     """The :class:`EnvConfig` of ``config`` for ``task`` with the keyword shortcuts applied.

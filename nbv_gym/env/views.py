@@ -42,6 +42,9 @@ AGENT_KEYS: dict[str, str] = {
     "cost_range_m": "the path length at which the cost layer saturates at 1 (a planner setting)",
     "predicted_gain": "the NBV layers' prediction, computed from the robot's own map",
     "realised_gain": "the same statistic on the robot's own statistics before and after the scan",
+    "busy": "whether the robot decides now or drives, scans or waits its turn (the team task)",
+    "teammate_goals": "the goals the robot's teammates announced (a team shares its plans)",
+    "team_elapsed_s": "the team's clock, which every robot of a team shares",
 }
 #: Info keys only an oracle may read, each with why: ground truth, true pose or the world's name.
 PRIVILEGED_KEYS: dict[str, str] = {

@@ -20,7 +20,8 @@
   cell that holds it under the half-open grid convention, so a goal's centre (a corner of four nav
   cells) belongs to the cell up and right of it; path lengths between goal centres are then exact
   8-connected distances. A goal is valid iff its nav cell is eroded free and reachable, its centre is
-  at least ``border_margin_m`` from the window border, and it is not the robot's own G cell;
+  at least ``border_margin_m`` from the window border, and it is not the robot's own G cell (nor
+  an excluded goal: :meth:`NavigationLayer.exclude_goals`, a team's teammates' cells);
   cost = min(path length / ``cost_range_m``, 1) (1 for invalid goals). A reach limit
   (:meth:`NavigationLayer.limit_reach`, the time task's remaining time) makes goals farther
   along the path invalid too. A *frontier goal* is a valid
@@ -137,6 +138,9 @@ class NavigationLayer:
         self.robot_xy = np.zeros(2)
         #: the longest path (metres) a valid goal may take (:meth:`limit_reach`; inf: no limit)
         self.reach_m = math.inf
+        #: (k,) int64 goals made invalid besides the rules above (a team's: where teammates
+        #: stand or drive to; :meth:`exclude_goals`)
+        self.excluded_goals = np.zeros(0, np.int64)
         self._goals: _Goals | None = None
 
     @classmethod
@@ -220,6 +224,14 @@ class NavigationLayer:
             self.reach_m = float(reach_m)
             self._goals = None
 
+    def exclude_goals(self, goals: np.ndarray) -> None:
+        """Make the (k,) goal indices ``goals`` invalid (none: an empty array) until the next
+        call or :meth:`clear`."""
+        goals = np.asarray(goals, np.int64).reshape(-1)
+        if not np.array_equal(goals, self.excluded_goals):
+            self.excluded_goals = goals
+            self._goals = None
+
     def clear(self) -> None:
         """Forget the map: nothing known, the robot at the origin, path lengths from there.
         (With nothing known, nothing is free, eroded free or a frontier: :meth:`reproject`'s
@@ -227,6 +239,7 @@ class NavigationLayer:
         for array in (self.known, self.occupied, self.eroded_free, self.frontier_mask,
                       self._frontier_near, self.goal_fractions):  # fmt: skip
             array[...] = 0
+        self.excluded_goals = np.zeros(0, np.int64)
         self._goals = None
         self.plan(np.zeros(2))
 
@@ -300,6 +313,7 @@ class NavigationLayer:
         reachable = np.isfinite(path_length) & self._goal_inner
         if self.robot_goal >= 0:
             reachable[self.robot_goal] = False
+        reachable[self.excluded_goals] = False
         mask = reachable & (path_length <= self.reach_m) if self.reach_m < math.inf else reachable
         unclipped = np.where(mask, path_length / self.cost_range_m, 1.0)
         cost = np.minimum(unclipped, 1.0)

@@ -52,7 +52,7 @@ def _top_down(axes, world: World, points: np.ndarray) -> None:
     )
     x0, y0, x1, y1 = world.window_m
     axes.add_patch(_rectangle(x0, y0, x1 - x0, y1 - y0, "window"))
-    axes.add_patch(_circle(_clear_radius(world)))
+    axes.add_patch(_circle(world.clear_radius_m))
     axes.plot(0, 0, "r^", markersize=9, label="start")
     (gx0, gy0), (gx1, gy1) = world.ground_bounds_xy
     axes.set(
@@ -70,13 +70,6 @@ def _contents(world: World) -> str:
     if isinstance(world.spec, SceneSpec):
         return f"scene {world.spec.path.name} ({world.spec.scene.kind})"
     return f"{len(world.layout.xy)} assets"
-
-
-def _clear_radius(world: World) -> float:
-    spec = world.spec
-    return (
-        spec.scene.clear_radius_m if isinstance(spec, SceneSpec) else spec.placement.clear_radius_m
-    )
 
 
 def _oblique(axes, points: np.ndarray):

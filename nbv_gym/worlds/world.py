@@ -81,6 +81,13 @@ class World:
         return self.scene_frame.window_m
 
     @property
+    def clear_radius_m(self) -> float:
+        """The radius of the disc around the start (the origin) that no asset enters, metres."""
+        if isinstance(self.spec, WorldSpec):
+            return self.spec.placement.clear_radius_m
+        return self.spec.scene.clear_radius_m
+
+    @property
     def scene_frame(self) -> SceneFrame:
         """Where a scene world lies; ValueError for a procedural world (it has none)."""
         if self.frame is None:

@@ -45,9 +45,24 @@ def info_keys(env_id: str, kwargs: dict) -> set[str]:
     return keys
 
 
+def team_info_keys() -> set[str]:
+    """The keys of every robot's info of a short team episode."""
+    from nbv_gym.team import TeamEnv
+
+    env = TeamEnv(world=WORLD, n_robots=2, time_budget_s=30.0)
+    _, infos = env.reset(seed=0)
+    keys = set().union(*map(set, infos.values()))
+    while env.agents:
+        actions = {a: int(np.flatnonzero(infos[a]["action_mask"])[0]) for a in env.agents}
+        infos = env.step(actions)[4]
+        keys |= set().union(*map(set, infos.values()))
+    return keys
+
+
 @pytest.fixture(scope="module")
 def produced() -> set[str]:
-    return set().union(*(info_keys(env_id, kwargs) for env_id, kwargs in SETTINGS.values()))
+    singles = (info_keys(env_id, kwargs) for env_id, kwargs in SETTINGS.values())
+    return set().union(*singles, team_info_keys())
 
 
 def test_every_info_key_is_classified_once(produced):

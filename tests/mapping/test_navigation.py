@@ -130,6 +130,25 @@ def test_goals_valid_costs_and_frontier_goals():
     np.testing.assert_array_equal(nav.frontier_goal_mask().reshape(6, 6), expected)
 
 
+def test_excluded_goals_are_invalid_everywhere_until_cleared():
+    nav = layer()
+    nav.update(*known_free_west(), robot_xy=(-1.5, -1.5))
+    before = nav.goal_mask().copy()
+    teammates = np.array([1 * 6 + 2, 1 * 6 + 4])  # two valid frontier goals
+    assert before[teammates].all()
+    nav.exclude_goals(teammates)
+    after = nav.goal_mask()
+    assert not after[teammates].any() and not nav.frontier_goal_mask()[teammates].any()
+    np.testing.assert_array_equal(after | np.isin(np.arange(36), teammates), before)
+    assert (nav.goal_cost()[teammates] == 1.0).all()
+    assert not nav.goal_mask(limited=False)[teammates].any()
+    nav.plan(np.array([-1.5, -1.5]))  # a new plan keeps them out
+    assert not nav.goal_mask()[teammates].any()
+    nav.clear()
+    nav.update(*known_free_west(), robot_xy=(-1.5, -1.5))
+    np.testing.assert_array_equal(nav.goal_mask(), before)
+
+
 def test_bad_inputs_are_rejected():
     with pytest.raises(ConfigError, match="divide"):
         NavigationLayer.from_config(NavigationConfig(cell_m=0.3), GOALS)

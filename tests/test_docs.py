@@ -269,3 +269,19 @@ def test_shipped_files_and_docs_cite_papers_not_internal_documents():
     pages = [*shipped, *PAGES]
     citing = [str(p.relative_to(ROOT)) for p in pages if INTERNAL_CITATION.search(p.read_text())]
     assert not citing, citing
+
+
+#: The longest the README may grow (lines): a first page, the rest lives in docs/.
+MAX_README_LINES = 200
+
+
+def test_the_readme_stays_a_first_page():
+    lines = (ROOT / "README.md").read_text().splitlines()
+    assert len(lines) <= MAX_README_LINES, f"README.md has {len(lines)} lines: move a part to docs/"
+
+
+def test_the_papers_bibtex_lives_in_the_docs_and_the_readme_points_to_it():
+    bibtex = (ROOT / "docs" / "citing.md").read_text()
+    for key in ("aravecchia2023nbv", "aravecchia2023wdocc", "turkar2023empir3d", "nbv_gym"):
+        assert f"{{{key}," in bibtex, key
+    assert "(docs/citing.md)" in (ROOT / "README.md").read_text()

@@ -1,6 +1,7 @@
 """The type-check ratchet: mypy's excuses for the package may only shrink.
 
-``pyproject.toml`` may excuse a module of ``nbv_gym`` from mypy (an override with
+``pyproject.toml`` has mypy check the bodies of unannotated functions too
+(``check_untyped_defs``), and may excuse a module of ``nbv_gym`` from mypy (an override with
 ``disable_error_code`` or ``ignore_errors``) only as far as :data:`EXCUSED` lists, and no file may
 silence mypy with a ``# type: ignore`` comment beyond :data:`IGNORE_COMMENTS`. Both lists are
 empty: fix the types. Removing an excuse needs no change here; adding one fails until it is
@@ -82,6 +83,10 @@ def test_the_whole_package_is_checked():
     config = mypy_config()
     assert config["files"] == ["nbv_gym"]
     assert [key for key in LOOSENING if key in config] == []
+
+
+def test_the_bodies_of_unannotated_functions_are_checked():
+    assert mypy_config().get("check_untyped_defs") is True
 
 
 def test_no_new_type_ignore_comments():

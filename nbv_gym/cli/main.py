@@ -28,7 +28,7 @@ class _App(typer.Typer):
             _fail("aborted.", 1)
         except typer.TyperException as error:  # a bad option or argument (Click's usage errors)
             if type(error).__name__ == "NoArgsIsHelpError":  # `nbv-gym`, `nbv-gym worlds`: help
-                error.show()
+                typer.echo(error.format_message(), err=True)  # its message is the help
                 raise SystemExit(error.exit_code) from None
             _fail(_usage_message(error), getattr(error, "exit_code", 2) or 2)
         except OSError as error:

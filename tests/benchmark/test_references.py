@@ -144,6 +144,7 @@ RERUNS = (
 
 @pytest.mark.parametrize(("name", "split", "world", "noise", "repeat"), RERUNS)
 def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, noise, repeat):
+    from nbv_gym.benchmark.rerun import run_difference
     from nbv_gym.benchmark.scoring import part_config, run_figures
     from nbv_gym.core.config import to_dict
     from nbv_gym.sweep.worker import RunTask, _run
@@ -160,21 +161,11 @@ def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, 
         for r in reference["runs"]
         if (r["split"], r["world"], r["noise"], r["repeat"]) == (split, world, noise, repeat)
     )
-    timings = ("decision_time_s", "wall_time_s")
-    # the figures the stored run holds (a newer protocol version adds figures, never moves one)
-    then = {k: v for k, v in then.items() if k not in timings}
-    now = json.loads(dumps_strict({k: now[k] for k in then}))
-    mapped = {k: now.pop(k) for k in MAP_FIGURES}, {k: then.pop(k) for k in MAP_FIGURES}
-    assert close(now, then), f"{name}'s run {spec.key} decided otherwise; {REGENERATE}"
-    assert close(*mapped, rel=CROSS_MACHINE_RTOL), f"{name}'s run {spec.key} moved; {REGENERATE}"
-
-
-#: Figures of a run that come from where scan points fall in voxels: on another CPU (Embree's
-#: code path, libm) a return's last bit can move a point across a voxel face, so they are
-#: compared to the cross-machine tolerance docs/benchmark.md states; the decisions (steps, end,
-#: path) exactly.
-MAP_FIGURES = ("q", "q_paper", "q_paper_70", "discovered")
-CROSS_MACHINE_RTOL = 1e-3
+    # the figures the stored run holds (a newer protocol version adds figures, never moves one),
+    # compared as `nbv-gym leaderboard --verify` compares a card's: the decisions exactly, the
+    # figures computed from Q to nbv_gym.benchmark.rerun.Q_RTOL, the timings not at all
+    problem = run_difference(then, json.loads(dumps_strict(now)))
+    assert problem is None, f"{name}'s run {spec.key} differs: {problem}; {REGENERATE}"
 
 
 @pytest.mark.parametrize("suite", SUITES)

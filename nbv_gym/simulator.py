@@ -244,7 +244,9 @@ class Simulator:
 
     def reset(self, seed: int | None = None) -> StepOutcome:
         """Start an episode at the start pose and take the first scan; randomness from ``seed``.
-        The map, statistics and quality arrays of the previous episode are cleared and reused."""
+        The map, statistics and quality arrays of the previous episode are cleared and reused.
+        An episode can end at its first scan (``reason`` set: e.g. a time budget that leaves no
+        goal); :meth:`step` then refuses, saying why."""
         self.rng = np.random.default_rng(seed)
         self._state.clear()
         self.state = self._state
@@ -254,7 +256,9 @@ class Simulator:
         self.steps, self.path_length_m = 0, 0.0
         self.summary = self._unobserved
         self.ended = ""
-        return self._observe(path_length_m=0.0)
+        outcome = self._observe(path_length_m=0.0)
+        self.ended = outcome.reason
+        return outcome
 
     def step(self, goal: int) -> StepOutcome:
         """Teleport to ``goal`` (index into the goal grid), scan, update; raises
@@ -263,8 +267,10 @@ class Simulator:
         if self.state is None:
             raise ResetNeededError("Call reset() before step().")
         if self.ended:
+            when = "at its first scan, before any step " if self.steps == 0 else ""
             raise ResetNeededError(
-                f"The episode has ended ({self.ended}); call reset() before step() again."
+                f"The episode has ended {when}({self.ended}); call reset() before step() again"
+                f"{' (with a larger budget: the same one ends the same way)' if when else ''}."
             )
         goal = goal_index(goal, self.n_goals)
         self._check_goal(goal)
@@ -336,9 +342,24 @@ class Simulator:
             return False, True, f"reached max_steps = {episode.max_steps}"
         if not self.goal_mask().any():
             if self.remaining_s < math.inf and self._time_bound():
-                return False, True, f"time budget spent ({self.remaining_s:.1f} s left)"
+                return False, True, self._spent()
             return False, True, "no valid goal is reachable"
         return False, False, ""
+
+    def _spent(self) -> str:
+        """Why a time budget ended the episode; at the first scan, with what the nearest goal
+        would have taken."""
+        if self.steps:
+            return f"time budget spent ({self.remaining_s:.1f} s left)"
+        navigation, effort = self._live.navigation, self.config.episode.effort
+        paths = navigation.goal_path_length()[navigation.goal_mask(limited=False)]
+        nearest = float(paths.min())
+        return (
+            f"time budget spent at the first scan: time_budget_s = "
+            f"{self.config.episode.time_budget_s:g} s leaves no goal (the nearest takes "
+            f"{effort.elapsed_s(nearest, 1):.1f} s: {nearest:.1f} m at {effort.speed_mps:g} m/s "
+            f"and a scan of {effort.scan_time_s:g} s)"
+        )
 
     def _time_bound(self) -> bool:
         """Whether the time budget is what leaves no valid goal: some goal would be valid with

@@ -1,7 +1,7 @@
 """Each run of a scorecard checked against itself: figures that the same episode fixes must agree.
 
-A run's figures are not independent. :func:`check_run_figures` refuses, in one line naming the
-run and the field, a run where they disagree:
+A run's figures are not independent. :func:`inconsistent_run` finds the first run where they
+disagree, and what (the validation refuses the card in one line naming the run and the field):
 
 - **the clock**: ``elapsed_s`` is exactly what the effort model gives for the run's path and
   scans (``path_length_m / speed + steps × scan time``, :class:`~nbv_gym.core.protocol.EffortModel`;
@@ -26,7 +26,6 @@ a re-run shows that (``nbv-gym leaderboard --verify``, :mod:`nbv_gym.benchmark.r
 from __future__ import annotations
 
 from itertools import pairwise
-from pathlib import Path
 from typing import Any
 
 from nbv_gym.benchmark.curves import CURVE_DECIMALS, PATH_GRID_M, TIME_GRID_S
@@ -36,24 +35,15 @@ from nbv_gym.core.protocol import DISCOVERED_TARGET, EffortModel
 AREA_SLACK = 1e-6
 
 
-def check_run_figures(card: dict[str, Any], path: str | Path) -> None:
-    """Check every run of ``card`` (runs already matched to the suite's parts) against itself;
-    :class:`~nbv_gym.benchmark.validation.ScorecardError` naming ``path``, the run and the
-    field at the first that disagrees."""
-    from nbv_gym.benchmark.validation import ScorecardError
-
+def inconsistent_run(card: dict[str, Any]) -> tuple[int, str] | None:
+    """The index of the first run of ``card`` (runs already matched to the suite's parts) that
+    disagrees with itself and what disagrees (:func:`run_problem`); None if none does."""
     parts = {part["split"]: part for part in card["suite"]["parts"]}
     for index, run in enumerate(card["runs"]):
         problem = run_problem(run, parts[run["split"]])
         if problem is not None:
-            where = (
-                f"runs[{index}] (split {run['split']}, world {run['world']}, noise "
-                f"{run['noise']}, repeat {run['repeat']})"
-            )
-            raise ScorecardError(
-                f"Scorecard {path}: {where}: {problem}; the run's figures were edited or do not "
-                "come from one nbv-gym episode. Score the policy again with `nbv-gym score`."
-            )
+            return index, problem
+    return None
 
 
 def run_problem(run: dict[str, Any], part: dict[str, Any]) -> str | None:

@@ -54,12 +54,10 @@ def validate_scorecard(
     (given ``aggregates``, the function that computes them) its aggregates against those its
     runs give (about 1 s a card: the bootstrap); :class:`ScorecardError` naming ``path`` and
     the first field that fails otherwise."""
-    from nbv_gym.benchmark.runchecks import check_run_figures
-
     _check_schema(card, path)
     _check_version(card, path)
     _check_runs(card, path)
-    check_run_figures(card, path)
+    _check_run_figures(card, path)
     if aggregates is not None:
         _check_aggregates(card, path, aggregates)
     return card
@@ -136,6 +134,21 @@ def _check_runs(card: dict[str, Any], path: str | Path) -> None:
             )
     if len(parts) < len(card["suite"]["parts"]):
         raise ScorecardError(f"Scorecard {path}: suite.parts names a split twice.")
+
+
+def _check_run_figures(card: dict[str, Any], path: str | Path) -> None:
+    """Each run agrees with itself (:func:`~nbv_gym.benchmark.runchecks.inconsistent_run`)."""
+    from nbv_gym.benchmark.runchecks import inconsistent_run
+
+    found = inconsistent_run(card)
+    if found is not None:
+        index, problem = found
+        run = card["runs"][index]
+        raise ScorecardError(
+            f"Scorecard {path}: runs[{index}] (split {run['split']}, world {run['world']}, noise "
+            f"{run['noise']}, repeat {run['repeat']}): {problem}; the run's figures were edited "
+            "or do not come from one nbv-gym episode. Score the policy again with `nbv-gym score`."
+        )
 
 
 def _in_part(run: dict[str, Any], part: dict[str, Any]) -> bool:

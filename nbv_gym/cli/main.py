@@ -266,7 +266,7 @@ def run(
       nbv-gym run --world pp1-trees --policy closest-frontier --noise 1 \\
           --seed 0 --out runs/cf
       nbv-gym run --policy ppo-budget --world pp3-trees  # budget: 12 scans
-      nbv-gym run --policy sb3:runs/t/final_model.zip  # its task, lidar and clock
+      nbv-gym run --policy sb3:runs/t/final_model.zip  # as trained
       nbv-gym run --policy nbv-nobs --task budget --budget-scans 20
       nbv-gym run --policy ig-unknown --task time --time-budget-s 300
       nbv-gym run --policy my_module:MyPolicy --world my_world.toml \\

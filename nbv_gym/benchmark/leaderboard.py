@@ -322,8 +322,7 @@ def leaderboard_markdown(
         *([f"**{pending}**", ""] if pending else []),
         _legend(best),
         "",
-        _checked(entries, verified or []),
-        "",
+        *_checked(entries, verified or []),
         _tables(players, best, improvements, rank=True),
     ]
     lines += _pending(entries)
@@ -435,22 +434,20 @@ def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
     return out
 
 
-def _checked(entries: list[Entry], verified: list[str]) -> str:
-    """What was checked of the scorecards given on the command line: always their schema, runs,
-    aggregates and each run against itself; re-runs only with ``--verify``."""
+def _checked(entries: list[Entry], verified: list[str]) -> list[str]:
+    """Lines saying what was checked of the scorecards given on the command line (none when
+    there are none): always their schema, runs, aggregates and each run against itself; re-runs
+    only with ``--verify``."""
     if all(e.reference for e in entries):
-        return "The shipped references' runs are re-run by nbv-gym's test suite."
+        return []
     checked = (
         "Each scorecard given on the command line was checked against the schema, its suite and "
         "itself (every aggregate from its runs; each run's clock, curves and area under Q(t))"
     )
     if not verified:
-        return f"{checked}; its runs were not re-run here (`--verify N` re-runs N of them)."
-    return (
-        f"{checked}, and sampled runs were re-run here: "
-        + "; ".join(markdown_text(note) for note in verified)
-        + "."
-    )
+        return [f"{checked}; its runs were not re-run here (`--verify N` re-runs N of them).", ""]
+    notes = "; ".join(markdown_text(note) for note in verified)
+    return [f"{checked}, and sampled runs were re-run here: {notes}.", ""]
 
 
 def _legend(best: Entry) -> str:

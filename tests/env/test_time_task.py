@@ -187,6 +187,17 @@ def test_a_budget_that_leaves_no_goal_ends_the_episode_at_its_first_scan_naming_
         check_env(env.unwrapped)
 
 
+def test_once_the_budget_is_spent_sample_draws_a_goal_valid_at_the_start():
+    """The round-4 probe E20: once no goal fitted, ``sample()`` drew any cell, which Gymnasium's
+    checker then stepped after a new reset ("within 1.0 m of the window border")."""
+    env = gymnasium.make(TIME_ID, world=WORLD, time_budget_s=12.0)  # one scan 1-2 m away fits
+    _, info = env.reset(seed=0)
+    start = info["action_mask"].astype(bool)
+    _, _, _, truncated, info = env.step(int(np.flatnonzero(start)[0]))
+    assert truncated and not info["action_mask"].any()
+    assert all(start[env.action_space.sample()] for _ in range(20))
+
+
 OTHER_ISSUE = "group 6 of the round-4 probes: the time budget's shape belongs to the polish issue"
 
 

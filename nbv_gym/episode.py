@@ -66,13 +66,14 @@ def run_episode(
     """Run ``policy`` in ``env`` from ``reset(seed=seed)`` until the episode ends; ``on_step`` is
     called with each new row (the first scan included). The policy sees :func:`policy_info`;
     a normal policy that reads a privileged key raises
-    :class:`~nbv_gym.env.views.PrivilegedInfoError`."""
+    :class:`~nbv_gym.env.views.PrivilegedInfoError`. An episode that ends at its first scan (a
+    time budget that leaves no goal) is a run of 0 steps: the policy is not asked."""
     start = time.perf_counter()
     observation, info, oracle = start_episode(env, policy, seed)
     result = EpisodeResult(oracle=oracle)
     clock = cast(ExploreEnv, env.unwrapped).sim  # the robot's clock, in every task
     row = _row(0, -1, info, 0.0, start, policy, clock.elapsed_s)
-    done = False
+    done = bool(info["end_reason"])  # over at the first scan: nothing to decide
     while True:
         result.steps.append(row)
         if on_step:

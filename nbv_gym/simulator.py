@@ -299,9 +299,23 @@ class Exploration:
             return False, True, f"reached max_steps = {episode.max_steps}"
         if not self._live.navigation.goal_mask().any():
             if remaining_s < math.inf and self._time_bound():
-                return False, True, f"time budget spent ({remaining_s:.1f} s left)"
+                return False, True, self._spent(robot, remaining_s)
             return False, True, "no valid goal is reachable"
         return False, False, ""
+
+    def _spent(self, robot: Robot, remaining_s: float) -> str:
+        """Why a time budget ended the episode for ``robot``; at its first scan, with what the
+        nearest goal would have taken."""
+        if robot.steps:
+            return f"time budget spent ({remaining_s:.1f} s left)"
+        navigation, effort = self._live.navigation, self.config.episode.effort
+        nearest = float(navigation.goal_path_length()[navigation.goal_mask(limited=False)].min())
+        return (
+            f"time budget spent at the first scan: time_budget_s = "
+            f"{self.config.episode.time_budget_s:g} s leaves no goal (the nearest takes "
+            f"{effort.elapsed_s(nearest, 1):.1f} s: {nearest:.1f} m at {effort.speed_mps:g} m/s "
+            f"and a scan of {effort.scan_time_s:g} s)"
+        )
 
     def _time_bound(self) -> bool:
         """Whether the time budget is what leaves no valid goal in the current plan: some goal
@@ -408,11 +422,15 @@ class Simulator(Exploration):
 
     def reset(self, seed: int | None = None) -> StepOutcome:
         """Start an episode at the start pose and take the first scan; randomness from ``seed``.
-        The map, statistics and quality arrays of the previous episode are cleared and reused."""
+        The map, statistics and quality arrays of the previous episode are cleared and reused.
+        An episode can end at its first scan (``reason`` set: e.g. a time budget that leaves no
+        goal); :meth:`step` then refuses, saying why."""
         self.robot.reset(seed)
         self.clear()
         self.ended = ""
-        return self._observe(path_length_m=0.0)
+        outcome = self._observe(path_length_m=0.0)
+        self.ended = outcome.reason
+        return outcome
 
     def step(self, goal: int) -> StepOutcome:
         """Teleport to ``goal`` (index into the goal grid), scan, update; raises
@@ -421,8 +439,10 @@ class Simulator(Exploration):
         if self.state is None:
             raise ResetNeededError("Call reset() before step().")
         if self.ended:
+            when = "at its first scan, before any step " if self.steps == 0 else ""
             raise ResetNeededError(
-                f"The episode has ended ({self.ended}); call reset() before step() again."
+                f"The episode has ended {when}({self.ended}); call reset() before step() again"
+                f"{' (with a larger budget: the same one ends the same way)' if when else ''}."
             )
         goal = goal_index(goal, self.n_goals)
         self.check_goal(goal, self.remaining_s)

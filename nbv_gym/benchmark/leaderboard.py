@@ -151,6 +151,7 @@ def check_comparable(entries: list[Entry]) -> None:
         identity = (suite["name"], suite["hash"], entry.card["protocol_version"])
         identities.setdefault(identity, []).append(entry.source)
     if len(identities) == 1:
+        _check_same_parts(entries)
         return
     described = "; ".join(
         f"{_sources(sources)}: suite {name} (hash {digest}), protocol version {version}"
@@ -161,6 +162,24 @@ def check_comparable(entries: list[Entry]) -> None:
         "every policy on the same suite with the same nbv-gym (`nbv-gym score POLICY --suite "
         "standard`; --references adds the references of the scorecards' suite)."
     )
+
+
+def _check_same_parts(entries: list[Entry]) -> None:
+    """Scorecards of one suite hash record one suite: the hash stands for the suite's worlds and
+    parts, so two cards that share it but list other parts (worlds renamed, a part dropped) are
+    refused — one of them was edited (an own-world suite's hash cannot be recomputed from its
+    card: it hashes the spec files' contents)."""
+    first = entries[0]
+    for entry in entries[1:]:
+        for key in ("seed", "parts"):
+            if entry.card["suite"][key] != first.card["suite"][key]:
+                suite = first.card["suite"]
+                raise LeaderboardError(
+                    f"{first.source} and {entry.source} record suite {suite['name']} with one "
+                    f"hash ({suite['hash']}) but different suite.{key}; one hash stands for one "
+                    "suite, so one of them was edited. Score both policies again on the same "
+                    "suite."
+                )
 
 
 def _sources(sources: list[str]) -> str:
@@ -199,17 +218,26 @@ class Leaderboard:
 
 
 def build_leaderboard(
-    paths: list[str | Path], references: bool, out: str | Path, suite: str | None = None
+    paths: list[str | Path],
+    references: bool,
+    out: str | Path,
+    suite: str | None = None,
+    verify: int = 0,
+    verify_seed: int = 0,
 ) -> Leaderboard:
     """Write ``leaderboard.md``, ``leaderboard.html``, Q against elapsed time
     (``q-time.png``/``.svg``) and the performance profiles (``profiles.png``/``.svg``) into
-    ``out``."""
+    ``out``; with ``verify`` > 0, first re-run that many runs of each given scorecard, chosen
+    with ``verify_seed`` (:func:`~nbv_gym.benchmark.rerun.verify_entries`), and refuse a card
+    whose runs do not reproduce."""
+    from nbv_gym.benchmark.rerun import verify_entries
     from nbv_gym.core.outputs import check_owner, claim_folder
     from nbv_gym.core.progress import say
     from nbv_gym.reporting.html import write_html
 
     check_owner(out, "leaderboard")  # another command's folder fails before any work
     entries = gather(paths, references, suite)
+    verified = verify_entries(entries, verify, verify_seed, say) if verify else []
     pending = _pending_references(entries) if references else ""
     say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "
         "bootstrap interval per entry…")  # fmt: skip
@@ -219,8 +247,9 @@ def build_leaderboard(
     save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
-    path.write_text(leaderboard_markdown(entries, improvements, pending))
-    summary = leaderboard_summary(entries, improvements) + (f"\n{pending}" if pending else "")
+    path.write_text(leaderboard_markdown(entries, improvements, pending, verified))
+    notes = [pending, *(f"re-run: {note}" for note in verified)]
+    summary = "\n".join([leaderboard_summary(entries, improvements), *filter(None, notes)])
     return Leaderboard(path, write_html(path), summary)
 
 
@@ -270,12 +299,16 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
 
 
 def leaderboard_markdown(
-    entries: list[Entry], improvements: dict[str, Any] | None = None, pending: str = ""
+    entries: list[Entry],
+    improvements: dict[str, Any] | None = None,
+    pending: str = "",
+    verified: list[str] | None = None,
 ) -> str:
     """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
     the figures; ``improvements`` (:func:`improvements_over_baseline`) computed when not given;
     ``pending``: a note that references of this protocol version are pending, shown in bold
-    above the tables."""
+    above the tables; ``verified``: per given scorecard, which of its runs were re-run here
+    (:func:`~nbv_gym.benchmark.rerun.verify_entries`)."""
     players, oracles = ranked(entries)
     best = baseline(entries)
     improvements = improvements_over_baseline(entries) if improvements is None else improvements
@@ -289,6 +322,7 @@ def leaderboard_markdown(
         *([f"**{pending}**", ""] if pending else []),
         _legend(best),
         "",
+        *_checked(entries, verified or []),
         _tables(players, best, improvements, rank=True),
     ]
     lines += _pending(entries)
@@ -398,6 +432,22 @@ def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
                 out[label] = other
                 break
     return out
+
+
+def _checked(entries: list[Entry], verified: list[str]) -> list[str]:
+    """Lines saying what was checked of the scorecards given on the command line (none when
+    there are none): always their schema, runs, aggregates and each run against itself; re-runs
+    only with ``--verify``."""
+    if all(e.reference for e in entries):
+        return []
+    checked = (
+        "Each scorecard given on the command line was checked against the schema, its suite and "
+        "itself (every aggregate from its runs; each run's clock, curves and area under Q(t))"
+    )
+    if not verified:
+        return [f"{checked}; its runs were not re-run here (`--verify N` re-runs N of them).", ""]
+    notes = "; ".join(markdown_text(note) for note in verified)
+    return [f"{checked}, and sampled runs were re-run here: {notes}.", ""]
 
 
 def _legend(best: Entry) -> str:

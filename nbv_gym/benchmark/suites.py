@@ -209,13 +209,20 @@ def shipped_identity(recorded: dict[str, Any]) -> dict[str, Any] | None:
     """What a scorecard of the shipped suite it names must record as its ``suite`` (with the
     lidar preset its parts name), or None for a suite nbv-gym does not ship (a test's, or your
     own worlds': those are checked against their own parts only)."""
+    suite = shipped_suite(recorded)
+    return None if suite is None else suite.identity()
+
+
+def shipped_suite(recorded: dict[str, Any]) -> Suite | None:
+    """The shipped :class:`Suite` a scorecard's ``suite`` entry names, with the lidar preset its
+    parts name; None for a suite nbv-gym does not ship."""
     if recorded.get("name") not in SUITES:
         return None
     lidars = {part.get("lidar", DEFAULT_LIDAR) for part in recorded.get("parts", [])}
     suite = SUITES[recorded["name"]]
     if len(lidars) == 1 and lidars != {DEFAULT_LIDAR} and next(iter(lidars)) in LIDAR_PRESETS:
         suite = suite.with_lidar(next(iter(lidars)))
-    return suite.identity()
+    return suite
 
 
 #: Base seed of the shipped suites' run seeds.

@@ -20,7 +20,7 @@ import numpy as np
 from nbv_gym.benchmark.curves import area_under
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import UnknownNameError
-from nbv_gym.core.protocol import TIME_BUDGET_S, check_noise_level
+from nbv_gym.core.protocol import TIME_BUDGET_S, check_effort, check_noise_level
 
 #: Values per tuned parameter: every policy is tuned on this many values.
 GRID_SIZE = 5
@@ -71,7 +71,7 @@ class TuningConfig:
         )
         check(self.episodes >= 1, "episodes", f"must be ≥ 1, got {self.episodes}")
         check_noise_level(self.noise)
-        check(self.time_budget_s > 0, "time_budget_s", f"must be > 0, got {self.time_budget_s}")
+        check_effort("time_budget_s", self.time_budget_s)
 
 
 @dataclass

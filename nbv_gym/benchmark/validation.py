@@ -4,9 +4,13 @@
 reads (the shipped references too) and refuses, in one line naming the file and the field:
 
 1. anything the shipped JSON schema (``scorecard.schema.json``) does not allow: a wrong type,
-   a missing or unknown field, a number out of range, another format or schema;
+   a missing or unknown field (from protocol version 2 on, every run's elapsed time, area under
+   Q(t) and both curves, each of its grid's length), a number out of range, another format or
+   schema; a protocol version newer than this nbv-gym's;
 2. runs that are not the suite's: a run twice, a run of no part, a part without its runs;
-3. aggregates that its runs do not give (for every scorecard given on the command line; the
+3. runs that disagree with themselves (:mod:`nbv_gym.benchmark.runchecks`: the clock against
+   path and scans, the curves against the final Q, the area against its own Q(t) samples);
+4. aggregates that its runs do not give (for every scorecard given on the command line; the
    shipped references are package files, checked against their runs by the test suite): every aggregate is recomputed from the runs with the
    scorecard module's own :func:`~nbv_gym.benchmark.scorecard.card_aggregates`, which its
    loader passes in (so a new aggregate is checked as soon as it is computed there), and
@@ -51,7 +55,9 @@ def validate_scorecard(
     runs give (about 1 s a card: the bootstrap); :class:`ScorecardError` naming ``path`` and
     the first field that fails otherwise."""
     _check_schema(card, path)
+    _check_version(card, path)
     _check_runs(card, path)
+    _check_run_figures(card, path)
     if aggregates is not None:
         _check_aggregates(card, path, aggregates)
     return card
@@ -72,7 +78,30 @@ def _check_schema(card: Any, path: str | Path) -> None:
         where = _field(error.absolute_path) or "the top level"
         raise ScorecardError(
             f"Scorecard {path} does not fit the scorecard schema at {where}: "
-            f"{_short(error.message)}; score the policy again with `nbv-gym score`."
+            f"{_schema_problem(error)}; score the policy again with `nbv-gym score`."
+        )
+
+
+def _schema_problem(error) -> str:
+    """jsonschema's message, shortened; an array of the wrong length by its length (the
+    message would quote the whole array)."""
+    if error.validator in ("minItems", "maxItems") and isinstance(error.instance, list):
+        bound = "at least" if error.validator == "minItems" else "at most"
+        return f"holds {len(error.instance)} values, {bound} {error.validator_value} expected"
+    return _short(error.message)
+
+
+def _check_version(card: dict[str, Any], path: str | Path) -> None:
+    """A card of a protocol version this nbv-gym does not implement yet is refused: its figures
+    follow rules unknown here, which would check and rank them under this version's."""
+    from nbv_gym.benchmark.suites import PROTOCOL_VERSION
+
+    version = card["protocol_version"]
+    if version > PROTOCOL_VERSION:
+        raise ScorecardError(
+            f"Scorecard {path}: protocol version {version} is newer than this nbv-gym's "
+            f"({PROTOCOL_VERSION}); rank it with the nbv-gym that scored it "
+            f"({card['nbv_gym']['version']}) or a newer one."
         )
 
 
@@ -105,6 +134,21 @@ def _check_runs(card: dict[str, Any], path: str | Path) -> None:
             )
     if len(parts) < len(card["suite"]["parts"]):
         raise ScorecardError(f"Scorecard {path}: suite.parts names a split twice.")
+
+
+def _check_run_figures(card: dict[str, Any], path: str | Path) -> None:
+    """Each run agrees with itself (:func:`~nbv_gym.benchmark.runchecks.inconsistent_run`)."""
+    from nbv_gym.benchmark.runchecks import inconsistent_run
+
+    found = inconsistent_run(card)
+    if found is not None:
+        index, problem = found
+        run = card["runs"][index]
+        raise ScorecardError(
+            f"Scorecard {path}: runs[{index}] (split {run['split']}, world {run['world']}, noise "
+            f"{run['noise']}, repeat {run['repeat']}): {problem}; the run's figures were edited "
+            "or do not come from one nbv-gym episode. Score the policy again with `nbv-gym score`."
+        )
 
 
 def _in_part(run: dict[str, Any], part: dict[str, Any]) -> bool:

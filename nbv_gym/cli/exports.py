@@ -11,13 +11,14 @@ from typing import Annotated
 import typer
 
 from nbv_gym.cli.options import (
+    AgentLidarOption,
     BudgetScansOption,
-    LidarOption,
     MaxStepsOption,
     ScanTimeOption,
     SpeedOption,
     TaskOption,
     TimeBudgetOption,
+    agent_options,
     task_episode_config,
     task_of,
 )
@@ -140,7 +141,7 @@ def record(
     time_budget_s: TimeBudgetOption = None,
     speed_mps: SpeedOption = None,
     scan_time_s: ScanTimeOption = None,
-    lidar: LidarOption = None,
+    lidar: AgentLidarOption = None,
     dataset_id: Annotated[
         str | None, typer.Option(help="Minari dataset id (default: nbv-gym/WORLD/POLICY-v0).")
     ] = None,
@@ -168,10 +169,14 @@ def record(
     from nbv_gym.rl.dataset import record_dataset
     from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_preset
 
-    lidar = lidar_preset(lidar or DEFAULT_LIDAR).name  # an unknown preset fails first
+    if lidar is not None:
+        lidar_preset(lidar)  # an unknown preset fails first
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
+    own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,
+                        speed_mps=speed_mps, scan_time_s=scan_time_s)  # fmt: skip
+    lidar = lidar_preset(own["lidar"] or DEFAULT_LIDAR).name
     episode = task_episode_config(
-        task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
+        task, budget_scans, max_steps, own["time_budget_s"], own["speed_mps"], own["scan_time_s"]
     )
     steps = episode.max_steps
     effort = {"speed_mps": episode.speed_mps, "scan_time_s": episode.scan_time_s}

@@ -7,14 +7,26 @@ from typing import Annotated, Any
 
 import typer
 
-from nbv_gym.cli.params import FINITE, POSITIVE, POSITIVE_COUNT
+from nbv_gym.cli.params import POSITIVE_COUNT, number
 from nbv_gym.core.protocol import (
     BUDGET_SCANS,
+    EFFORT_RANGES,
     EXPLORE_MAX_STEPS,
     SCAN_TIME_S,
     SPEED_MPS,
     TIME_BUDGET_S,
 )
+
+
+def _effort(key: str) -> tuple[str, object]:
+    """The range text and the parser of the effort value ``key`` (:data:`EFFORT_RANGES`)."""
+    low, high, unit = EFFORT_RANGES[key]
+    return f"{low:,g} to {high:,g} {unit}", number(float, low, high)
+
+
+_BUDGET_RANGE, _BUDGET = _effort("time_budget_s")
+_SPEED_RANGE, _SPEED = _effort("speed_mps")
+_SCAN_RANGE, _SCAN = _effort("scan_time_s")
 
 TASK_HELP = (
     "explore (stop at 70 % discovered), budget (a fixed number of scans, travel free) or time "
@@ -23,21 +35,26 @@ TASK_HELP = (
 )
 BUDGET_HELP = f"Scans of the budget task [default: the agent's own budget, else {BUDGET_SCANS}]."
 MAX_STEPS_HELP = f"Truncate the explore task after this many steps [default: {EXPLORE_MAX_STEPS}]."
-TIME_BUDGET_HELP = f"Seconds of robot time of the time task [default: {TIME_BUDGET_S:g}]."
+TIME_BUDGET_HELP = (
+    f"Seconds of robot time of the time task, {_BUDGET_RANGE} [default: the agent's own, else "
+    f"{TIME_BUDGET_S:g}]."
+)
 SPEED_HELP = (
-    f"Driving speed of the effort model, m/s (every task's clock) [default: {SPEED_MPS:g}]."
+    f"Driving speed of the effort model, {_SPEED_RANGE} (every task's clock) [default: the "
+    f"agent's own, else {SPEED_MPS:g}]."
 )
 SCAN_TIME_HELP = (
-    f"Time of one stop-and-scan besides driving, s (every task's clock) [default: {SCAN_TIME_S:g}]."
+    f"Time of one stop-and-scan besides driving, {_SCAN_RANGE} (every task's clock) [default: "
+    f"the agent's own, else {SCAN_TIME_S:g}]."
 )
 
 #: The task options of ``run`` and ``record``, declared once (``task_of`` reads them).
 TaskOption = Annotated[str | None, typer.Option(help=TASK_HELP)]
 BudgetScansOption = Annotated[int | None, typer.Option(help=BUDGET_HELP, parser=POSITIVE_COUNT)]
 MaxStepsOption = Annotated[int | None, typer.Option(help=MAX_STEPS_HELP, parser=POSITIVE_COUNT)]
-TimeBudgetOption = Annotated[float | None, typer.Option(help=TIME_BUDGET_HELP, parser=POSITIVE)]
-SpeedOption = Annotated[float | None, typer.Option(help=SPEED_HELP, parser=POSITIVE)]
-ScanTimeOption = Annotated[float | None, typer.Option(help=SCAN_TIME_HELP, parser=FINITE)]
+TimeBudgetOption = Annotated[float | None, typer.Option(help=TIME_BUDGET_HELP, parser=_BUDGET)]
+SpeedOption = Annotated[float | None, typer.Option(help=SPEED_HELP, parser=_SPEED)]
+ScanTimeOption = Annotated[float | None, typer.Option(help=SCAN_TIME_HELP, parser=_SCAN)]
 
 
 def task_of(
@@ -88,3 +105,46 @@ LIDAR_HELP = (
 )
 #: ``--lidar NAME`` of ``run``, ``record``, ``sweep``, ``score`` and ``train``.
 LidarOption = Annotated[str | None, typer.Option(help=LIDAR_HELP + " [default: os1-16]")]
+#: ``--lidar NAME`` of ``run`` and ``record``, whose default is a trained agent's own.
+AgentLidarOption = Annotated[
+    str | None, typer.Option(help=LIDAR_HELP + " [default: the agent's own, else os1-16]")
+]
+
+
+#: The options of ``run`` and ``record`` that a trained agent's own settings fill in when left
+#: out (its training config): its lidar; for an agent of the time task, its effort model and,
+#: when it runs the time task, its time budget.
+AGENT_OPTIONS = {
+    "lidar": "--lidar",
+    "time_budget_s": "--time-budget-s",
+    "speed_mps": "--speed-mps",
+    "scan_time_s": "--scan-time-s",
+}
+
+
+def agent_options(policy: str, task: str, **given: Any) -> dict[str, Any]:
+    """The lidar and effort options (:data:`AGENT_OPTIONS`' keys) of ``run``/``record`` for
+    ``policy`` under ``task``: each ``given`` one, else the trained agent's own
+    (:func:`~nbv_gym.policies.trained_settings`), else None (the default). A given option that
+    differs from the agent's own is refused: the agent would meet another sensor or clock than
+    it learned from, while its run said nothing."""
+    from nbv_gym.core.errors import ConfigError
+    from nbv_gym.policies import trained_settings
+
+    found = trained_settings(policy)
+    if found is None:
+        return given
+    path, own = found
+    applies = {"lidar"} | ({"speed_mps", "scan_time_s"} if own["task"] == "time" else set())
+    if own["task"] == task == "time":
+        applies.add("time_budget_s")
+    out = dict(given)
+    for key in applies:
+        if given[key] is not None and given[key] != own[key]:
+            raise ConfigError(
+                f"{AGENT_OPTIONS[key]} {given[key]}: {policy} was trained with {key} = "
+                f"{own[key]!r} ({path}); leave {AGENT_OPTIONS[key]} out to run it as it was "
+                "trained, or train an agent for this setting."
+            )
+        out[key] = own[key]
+    return out

@@ -8,13 +8,14 @@ from typing import Annotated
 import typer
 
 from nbv_gym.cli.options import (
+    AgentLidarOption,
     BudgetScansOption,
-    LidarOption,
     MaxStepsOption,
     ScanTimeOption,
     SpeedOption,
     TaskOption,
     TimeBudgetOption,
+    agent_options,
     task_episode_config,
     task_of,
 )
@@ -39,7 +40,7 @@ def run(
     time_budget_s: TimeBudgetOption = None,
     speed_mps: SpeedOption = None,
     scan_time_s: ScanTimeOption = None,
-    lidar: LidarOption = None,
+    lidar: AgentLidarOption = None,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
     force: Annotated[
@@ -63,6 +64,7 @@ def run(
       nbv-gym run --world pp1-trees --policy closest-frontier --noise 1 \\
           --seed 0 --out runs/cf
       nbv-gym run --policy ppo-budget --world pp3-trees  # budget: 12 scans
+      nbv-gym run --policy sb3:runs/t/final_model.zip  # as trained
       nbv-gym run --policy nbv-nobs --task budget --budget-scans 20
       nbv-gym run --policy ig-unknown --task time --time-budget-s 300
       nbv-gym run --policy my_module:MyPolicy --world my_world.toml \\
@@ -78,11 +80,15 @@ def run(
     from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.worlds import load_spec
 
-    lidar = lidar or DEFAULT_LIDAR
-    sensor = lidar_config(lidar)  # an unknown preset fails first
+    if lidar is not None:
+        lidar_config(lidar)  # an unknown preset fails first
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
+    own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,
+                        speed_mps=speed_mps, scan_time_s=scan_time_s)  # fmt: skip
+    lidar = own["lidar"] or DEFAULT_LIDAR
+    sensor = lidar_config(lidar)
     episode = task_episode_config(
-        task, budget_scans, max_steps, time_budget_s, speed_mps, scan_time_s
+        task, budget_scans, max_steps, own["time_budget_s"], own["speed_mps"], own["scan_time_s"]
     )
     run_files = _check_run_folder(out, force)  # a bad --out fails before the world is built
     agent = load_policy(policy)

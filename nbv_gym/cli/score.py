@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from nbv_gym.cli.options import LidarOption
+from nbv_gym.cli.params import COUNT
 
 
 def score(
@@ -77,10 +78,10 @@ def score(
     from nbv_gym.benchmark.suites import get_suite
     from nbv_gym.cli.sweep import resumable
     from nbv_gym.core.config import check
-    from nbv_gym.sweep.backends import check_scheduler
+    from nbv_gym.sweep.backends import reach_scheduler
 
     check(workers is None or workers >= 1, "--workers", f"must be ≥ 1, got {workers}")
-    check_scheduler(scheduler)
+    reach_scheduler(scheduler)  # a bad or silent scheduler fails before any folder
     chosen = get_suite(suite) if lidar is None else get_suite(suite).with_lidar(lidar)
     chosen = chosen.with_worlds(_absolute(world)) if world else chosen
     with resumable(out / "parts"):
@@ -120,6 +121,21 @@ def leaderboard(
             "(standard, quick) [default: standard]."
         ),
     ] = None,
+    verify: Annotated[
+        int,
+        typer.Option(
+            help="Re-run N runs of each given scorecard here (the same policy code needed) and "
+            "refuse a card whose runs do not reproduce.",
+            parser=COUNT,
+        ),
+    ] = 0,
+    verify_seed: Annotated[
+        int | None,
+        typer.Option(
+            help="Seed of --verify's choice of runs [default: drawn at random and printed].",
+            parser=COUNT,
+        ),
+    ] = None,
 ) -> None:
     """Rank scorecards of one suite in one table (leaderboard.md and leaderboard.html); the
     ranking is printed too.
@@ -133,6 +149,11 @@ def leaderboard(
     Scorecards of different suites or protocol versions are refused; shipped references of
     another protocol version are left out, and the board says they are pending.
 
+    Every scorecard is checked against the schema, its suite and itself (its aggregates from
+    its runs; each run's clock, curves and area under Q(t)). That cannot catch a forgery
+    consistent with itself: --verify N re-runs N runs of each given scorecard, chosen with a
+    stated seed, and refuses it unless they reproduce (docs/security.md).
+
     Examples:
 
     \b
@@ -140,9 +161,17 @@ def leaderboard(
       nbv-gym leaderboard --references --suite quick --out board-quick
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
       nbv-gym leaderboard scores/a scores/b --out board
+      nbv-gym leaderboard scores/theirs --references --verify 3 --out board
     """
+    import secrets
+
     from nbv_gym.benchmark.leaderboard import build_leaderboard
 
-    board = build_leaderboard(list(scorecards or []), references, out, suite)
+    if verify and verify_seed is None:
+        verify_seed = secrets.randbelow(2**32)
+        typer.echo(f"--verify {verify}: runs chosen with --verify-seed {verify_seed}", err=True)
+    board = build_leaderboard(
+        list(scorecards or []), references, out, suite, verify, verify_seed or 0
+    )
     typer.echo(board.summary)
     typer.echo(f"leaderboard: {board.markdown} and {board.html}")

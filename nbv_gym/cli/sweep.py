@@ -87,7 +87,7 @@ def sweep(
     """
     from nbv_gym.configs import config_file
     from nbv_gym.core.outputs import check_owner
-    from nbv_gym.sweep.backends import check_scheduler
+    from nbv_gym.sweep.backends import reach_scheduler
     from nbv_gym.sweep.config import read_sweep_config, with_lidar, with_overrides
     from nbv_gym.sweep.runner import run_sweep, summary_rows
 
@@ -101,7 +101,7 @@ def sweep(
         )
     out = out or Path("results") / sweep_config.name
     check_owner(out, "sweep")
-    check_scheduler(scheduler)
+    reach_scheduler(scheduler)  # a bad or silent scheduler fails before any folder
     python_path = (str(config_path.resolve().parent), os.getcwd())
     with resumable(out / "runs"):
         summary = run_sweep(sweep_config, out, workers, scheduler, python_path, progress)

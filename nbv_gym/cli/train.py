@@ -121,6 +121,8 @@ def train(
     from nbv_gym.configs import config_file
     from nbv_gym.core.outputs import claim_folder
     from nbv_gym.rl.config import load_train_config
+    from nbv_gym.rl.train import check_resume
+    from nbv_gym.sweep.backends import reach_scheduler
 
     overrides = {"total_timesteps": timesteps, "n_envs": n_envs, "seed": seed,
                  "eval_every_steps": eval_every, "device": device,
@@ -130,6 +132,8 @@ def train(
     settings = load_train_config(config_path, overrides)
     out = out or Path("runs") / config_path.stem
     earlier = _check_train_folder(out, force, resume)
+    check_resume(settings, resume)  # a resume that cannot go on fails before anything is written
+    reach_scheduler(settings.scheduler or None)
     claim_folder(out, "train")
     where = f" on {settings.scheduler}" if settings.scheduler else ""
     typer.echo(
@@ -153,6 +157,13 @@ def _check_train_folder(out: Path, force: bool, resume: Path | None) -> bool:
 
     check_owner(out, "train")
     earlier = [name for name in RUN_FILES if (out / name).exists()]
+    models = sorted(out.glob("*.zip")) + sorted(out.glob("checkpoints/*.zip"))
+    if earlier and not models and not (force or resume):
+        raise OutputError(
+            f"--out {out} holds the start of a training that saved no model "
+            f"({', '.join(earlier[:3])}): nothing to resume. Pass --force to replace it, or give "
+            "another folder."
+        )
     if earlier and not (force or resume):
         raise OutputError(
             f"--out {out} holds an earlier training ({', '.join(earlier[:3])}"

@@ -79,6 +79,27 @@ SPEED_MPS = 1.0
 SCAN_TIME_S = 10.0
 #: Default budget of the time task, s (docs/protocol.md#effort says why).
 TIME_BUDGET_S = 600.0
+#: The physically meaningful range (inclusive, with its unit) of each effort value, the one
+#: place every entry checks them (the CLI's options, sweep, training and tuning configs, the
+#: env's keywords): a robot from 1 cm/s to 100 m/s; a scan free (0 s) to an hour; a time budget
+#: from 1 s to a day. Inside them every figure of the clock stays finite (the scan cap of a
+#: day at 100 m/s is 8,640,001 scans).
+EFFORT_RANGES: dict[str, tuple[float, float, str]] = {
+    "speed_mps": (0.01, 100.0, "m/s"),
+    "scan_time_s": (0.0, 3600.0, "s"),
+    "time_budget_s": (1.0, 86_400.0, "s"),
+}
+
+
+def check_effort(key: str, value: float, name: str | None = None) -> None:
+    """Raise :class:`ConfigError` naming ``name`` (default ``key``) unless ``value`` lies in
+    ``key``'s range of :data:`EFFORT_RANGES` (NaN never does)."""
+    low, high, unit = EFFORT_RANGES[key]
+    check(
+        low <= value <= high,
+        name or key,
+        f"must be from {low:,g} to {high:,g} {unit}, got {value}",
+    )
 
 
 @dataclass(frozen=True)
@@ -86,16 +107,16 @@ class EffortModel:
     """The time a robot spends: ``path_m / speed_mps + scans · scan_time_s`` (module docstring).
 
     Args:
-        speed_mps: driving speed, m/s (> 0).
-        scan_time_s: the time of one stop-and-scan besides driving, s (≥ 0).
+        speed_mps: driving speed, m/s (in :data:`EFFORT_RANGES`: 0.01 to 100).
+        scan_time_s: the time of one stop-and-scan besides driving, s (0 to 3,600).
     """
 
     speed_mps: float = SPEED_MPS
     scan_time_s: float = SCAN_TIME_S
 
     def __post_init__(self) -> None:
-        check(self.speed_mps > 0, "speed_mps", f"must be > 0, got {self.speed_mps}")
-        check(self.scan_time_s >= 0, "scan_time_s", f"must be ≥ 0, got {self.scan_time_s}")
+        check_effort("speed_mps", self.speed_mps)
+        check_effort("scan_time_s", self.scan_time_s)
 
     def elapsed_s(self, path_m: float, scans: int) -> float:
         """Seconds spent after driving ``path_m`` metres and taking ``scans`` scans (after the
@@ -111,7 +132,7 @@ class EffortModel:
         """A number of scans no episode of ``time_budget_s`` can reach (each goal costs more
         than a scan, since it lies in another cell): the time task's ``max_steps``, a cap that
         never binds."""
-        per_scan = self.scan_time_s or 1.0 / self.speed_mps  # every goal is ≥ 1 m away
+        per_scan = max(self.scan_time_s, 1.0 / self.speed_mps)  # every goal is ≥ 1 m away
         return max(1, math.ceil(time_budget_s / per_scan) + 1)
 
 
@@ -146,11 +167,8 @@ class EpisodeConfig:
             "must be in (0, 1], or None for no termination",
         )
         check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
-        check(
-            self.time_budget_s is None or self.time_budget_s > 0,
-            "time_budget_s",
-            f"must be > 0, or None for no time budget, got {self.time_budget_s}",
-        )
+        if self.time_budget_s is not None:
+            check_effort("time_budget_s", self.time_budget_s)
         EffortModel(self.speed_mps, self.scan_time_s)  # checks both
 
     @cached_property

@@ -87,8 +87,9 @@ class GoalSpace(spaces.Discrete):
     """``Discrete(n)`` whose ``sample()`` (without a mask) draws a goal that is valid now.
 
     Among the valid goals it draws from those that were also valid right after the episode's
-    reset, when there are any: Gymnasium's env checker samples an action in one state and steps
-    it after a new seeded reset, which only works for goals valid at every start.
+    reset, when there are any (after the episode's end, from those): Gymnasium's env checker
+    samples an action in one state and steps it after a new seeded reset, which only works for
+    goals valid at every start.
     """
 
     def __init__(self, n: int, seed: int | None = None):
@@ -260,12 +261,14 @@ class ExploreEnv(gymnasium.Env):
             self._world_index = index
 
     def _current_mask(self) -> np.ndarray | None:
-        """Valid goals, narrowed to those also valid at the episode's start if any are."""
+        """Valid goals, narrowed to those also valid at the episode's start if any are; when
+        none is valid now (the episode is over, e.g. its time budget spent), those valid at its
+        start (a sample meant for the next episode, as Gymnasium's checker takes one)."""
         if self.sim.state is None:
             return None
         mask = self.sim.goal_mask()
         stable = mask & self._start_mask
-        return stable if stable.any() else mask
+        return stable if stable.any() else mask if mask.any() else self._start_mask
 
     @property
     def _outcome(self) -> StepOutcome:

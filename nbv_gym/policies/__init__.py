@@ -20,7 +20,9 @@ from nbv_gym.policies.registry import (
     model_path,
     policy_name,
     required_layers,
+    trained_settings,
     trained_task,
+    training_config_path,
 )
 
 __all__ = [
@@ -38,5 +40,7 @@ __all__ = [
     "model_path",
     "policy_name",
     "required_layers",
+    "trained_settings",
     "trained_task",
+    "training_config_path",
 ]

@@ -20,7 +20,8 @@ import numpy as np
 
 from nbv_gym.core.config import read_toml
 from nbv_gym.core.errors import NbvGymError, UnknownNameError
-from nbv_gym.core.protocol import check_task
+from nbv_gym.core.protocol import BUDGET_SCANS, SCAN_TIME_S, SPEED_MPS, TIME_BUDGET_S, check_task
+from nbv_gym.sensor.presets import DEFAULT_LIDAR
 
 #: Registered policy names → ``module:Class`` of their implementation.
 POLICIES: dict[str, str] = {
@@ -142,21 +143,53 @@ def model_path(name: str) -> Path:
 
 def trained_task(name: str) -> tuple[str, int] | None:
     """The task and budget (scans, the training config's ``max_steps``) an agent was trained
-    under, read from its training config: ``models/NAME.toml`` beside a shipped model, or
-    ``config.toml`` beside an ``sb3:PATH`` model in the run folder ``nbv-gym train`` wrote;
-    None for other policies or when no such config is found."""
-    if name in MODELS:
-        config = model_path(name).with_suffix(".toml")
-    elif name.startswith(SB3_PREFIX):
-        config = Path(name[len(SB3_PREFIX) :]).parent / "config.toml"
-    else:
-        return None
-    if not config.is_file():
+    under (:func:`trained_settings`); None for other policies or when no config is found."""
+    found = trained_settings(name)
+    return None if found is None else (found[1]["task"], found[1]["max_steps"])
+
+
+#: What an agent's training config fixes about the episodes it was trained on, with the value a
+#: config that leaves the key out meant (the training config's defaults).
+TRAINED_DEFAULTS: dict[str, Any] = {
+    "max_steps": BUDGET_SCANS,
+    "lidar": DEFAULT_LIDAR,
+    "time_budget_s": TIME_BUDGET_S,
+    "speed_mps": SPEED_MPS,
+    "scan_time_s": SCAN_TIME_S,
+}
+
+
+def trained_settings(name: str) -> tuple[Path, dict[str, Any]] | None:
+    """The training config of the agent ``name`` and what it fixes about the episodes the agent
+    learned from: its task and :data:`TRAINED_DEFAULTS`' keys. The config is
+    ``models/NAME.toml`` beside a shipped model, else the ``config.toml`` of the run folder
+    ``nbv-gym train`` wrote for an ``sb3:PATH`` model (beside the model, or above its
+    ``checkpoints/`` folder; in a packaged folder). None for other policies, or when no config
+    with a ``task`` is found."""
+    config = training_config_path(name)
+    if config is None or not config.is_file():
         return None
     data = read_toml(config, "Training config")
-    if "task" not in data or "max_steps" not in data:
+    if "task" not in data:
         return None
-    return data["task"], data["max_steps"]
+    return config, {
+        "task": data["task"],
+        **{k: data.get(k, v) for k, v in TRAINED_DEFAULTS.items()},
+    }
+
+
+def training_config_path(name: str) -> Path | None:
+    """Where the training config of the agent ``name`` would be (:func:`trained_settings`);
+    None for a policy that is not a trained agent."""
+    if name in MODELS:
+        return model_path(name).with_suffix(".toml")
+    if not name.startswith(SB3_PREFIX):
+        return None
+    model = Path(name[len(SB3_PREFIX) :])
+    if model.is_dir():  # a packaged folder
+        return model / "config.toml"
+    folder = model.parent
+    return (folder.parent if folder.name == "checkpoints" else folder) / "config.toml"
 
 
 def episode_task(

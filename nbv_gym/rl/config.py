@@ -20,6 +20,7 @@ from nbv_gym.core.protocol import (
     TASKS,
     TIME_BUDGET_S,
     EffortModel,
+    check_effort,
     check_noise_level,
 )
 from nbv_gym.env.layers import OPTIONAL_LAYERS
@@ -202,8 +203,15 @@ class TrainConfig:
         if self.lidar not in LIDAR_PRESETS:
             raise ConfigError(f"lidar: {UnknownNameError('lidar', self.lidar, LIDAR_PRESETS)}")
         check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
-        check(self.time_budget_s > 0, "time_budget_s", f"must be > 0, got {self.time_budget_s}")
+        check_effort("time_budget_s", self.time_budget_s)
         EffortModel(self.speed_mps, self.scan_time_s)  # checks both
+        check(
+            self.task != "time" or self.time_budget_s > self.scan_time_s,
+            "time_budget_s",
+            f"{self.time_budget_s:g} s leaves no goal: each costs a scan (scan_time_s = "
+            f"{self.scan_time_s:g} s) and a drive, so every episode would end at its first scan "
+            "with nothing to learn; give a larger time budget",
+        )
         unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
         check(
             not unknown,

@@ -30,6 +30,7 @@ import cloudpickle
 import gymnasium
 import numpy as np
 
+from nbv_gym.core.cluster import ask
 from nbv_gym.core.errors import ClusterError
 from nbv_gym.rl.envgroup import EnvGroup
 from nbv_gym.rl.envs import EPISODE_INFO_KEYS
@@ -203,7 +204,7 @@ class DaskVecEnv(ProtocolVecEnv):
             try:
                 return future.result(timeout=POLL_S)
             except TimeoutError:
-                if worker not in self.client.nthreads():
+                if worker not in ask(self.client, "nthreads"):
                     raise _WorkerLost from None
             except Exception as error:  # the environments' own errors come as answers
                 if self._leaving(worker):
@@ -214,7 +215,7 @@ class DaskVecEnv(ProtocolVecEnv):
         """Whether the scheduler lists ``worker`` as gone or closing within :data:`POLL_S`."""
         deadline = time.monotonic() + POLL_S
         while True:
-            workers = self.client.scheduler_info(n_workers=-1)["workers"]
+            workers = ask(self.client, "scheduler_info", n_workers=-1)["workers"]
             if workers.get(worker, {}).get("status") != "running":
                 return True
             if time.monotonic() >= deadline:
@@ -270,7 +271,7 @@ class DaskVecEnv(ProtocolVecEnv):
         """The cluster's workers but ``exclude``, once there is one (:data:`WORKER_WAIT_S`)."""
         deadline = time.monotonic() + WORKER_WAIT_S
         while True:
-            workers = [w for w in self.client.nthreads() if w not in exclude]
+            workers = [w for w in ask(self.client, "nthreads") if w not in exclude]
             if workers:
                 return workers
             if time.monotonic() >= deadline:

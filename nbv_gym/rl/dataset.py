@@ -142,6 +142,11 @@ def _episode(env, agent, seed: int, index: int):
     from nbv_gym.episode import policy_info, start_episode
 
     observation, info, oracle = start_episode(env, agent, seed)
+    if info["end_reason"]:
+        raise RecordError(
+            f"episode {index} (seed {seed}) ended at its first scan ({info['end_reason']}): it "
+            "has no step to record."
+        )
     observations, infos, steps = [observation], [_kept(info)], []
     done = False
     while not done:

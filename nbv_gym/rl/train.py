@@ -65,10 +65,10 @@ def train(
     """
     require_rl()
     check_device(config.device)
+    check_resume(config, resume)  # before anything is written
     threads = prepare_learner(config.torch_threads, local_envs(config))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    write_run_info(config, out)
     started = time.perf_counter()
     where = (
         f"on {config.scheduler}"
@@ -87,6 +87,7 @@ def train(
         say(f"{'loading' if resume else 'creating'} the {config.algorithm} model "
             f"({time.perf_counter() - started:.0f} s so far)…")  # fmt: skip
         model = _load_or_create(config, envs, resume, verbose)
+        write_run_info(config, out)  # once the run has started: a start-up failure leaves none
         model.set_logger(_logger(out, verbose))
         say(f"training: the first update comes after {config.learning.n_steps * config.n_envs:,} "
             "steps (n_steps · n_envs)")  # fmt: skip
@@ -312,6 +313,34 @@ def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbos
         if config.init_model:
             _start_from(model, config)
         return model
+    cls = algorithm_class(config.algorithm)
+    try:
+        return cls.load(resume, env=envs, device=config.device, verbose=verbose)
+    except (ValueError, KeyError) as error:
+        raise ConfigError(
+            f"Cannot resume {config.algorithm} from {str(resume)!r}: {error}. Resume with the "
+            "config (algorithm, n_envs, observation_layers) the checkpoint was trained with."
+        ) from None
+
+
+#: What a resumed training must share with the training that saved its model: the algorithm,
+#: the network and what the environment gives and rewards (another task, budget, lidar or clock
+#: starts a new training from the model's weights: ``init_model``).
+RESUME_KEYS = ("algorithm", "network", "features_dim", "observation_layers", "reward_scale",
+               "task", "noise", "lidar", "max_steps", "time_budget_s", "speed_mps",
+               "scan_time_s")  # fmt: skip
+
+
+def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
+    """:class:`ConfigError` (or the model file's own error) unless ``resume`` (None: nothing to
+    check) is a model zip saved by ``config.algorithm`` and, when the training that saved it
+    left its ``config.toml`` (beside the model or above its ``checkpoints/``), that training's
+    :data:`RESUME_KEYS` equal ``config``'s. Reads only the zip's JSON and the TOML: called
+    before anything is written."""
+    if resume is None:
+        return
+    from nbv_gym.policies import SB3_PREFIX, training_config_path
+    from nbv_gym.rl.config import load_train_config
     from nbv_gym.rl.modelfile import check_model_file, describe_model
 
     check_model_file(Path(resume))
@@ -321,14 +350,23 @@ def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbos
             f"Cannot resume {config.algorithm} from {str(resume)!r}: {saved} saved it. Set "
             f'algorithm = "{saved}" in the config, or start a new run.'
         )
-    cls = algorithm_class(config.algorithm)
-    try:
-        return cls.load(resume, env=envs, device=config.device, verbose=verbose)
-    except (ValueError, KeyError) as error:
-        raise ConfigError(
-            f"Cannot resume {config.algorithm} from {str(resume)!r}: {error}. Resume with the "
-            "config (algorithm, n_envs, observation_layers) the checkpoint was trained with."
-        ) from None
+    path = training_config_path(f"{SB3_PREFIX}{resume}")
+    if path is None or not path.is_file():
+        return
+    then, now = to_dict(load_train_config(path)), to_dict(config)
+    for key in RESUME_KEYS:
+        if _relevant(key, config.task) and then[key] != now[key]:
+            raise ConfigError(
+                f"--resume {resume}: the training that saved it ({path}) has {key} = "
+                f"{then[key]!r}, this config {now[key]!r}; a training resumes under its own "
+                f"settings. Resume with its config, or start a new training from its weights "
+                f'(init_model = "{resume}").'
+            )
+
+
+def _relevant(key: str, task: str) -> bool:
+    """Whether ``key`` shapes the episodes of ``task`` (a budget is the task's own)."""
+    return key not in ("max_steps", "time_budget_s") or (key == "time_budget_s") == (task == "time")
 
 
 def _start_from(model, config: TrainConfig) -> None:

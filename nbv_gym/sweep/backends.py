@@ -20,7 +20,7 @@ from multiprocessing.connection import Connection
 from multiprocessing.connection import wait as connection_wait
 from typing import Any, Protocol, cast
 
-from nbv_gym.core.cluster import connect, describe
+from nbv_gym.core.cluster import ask, check_scheduler_answers, connect, describe
 from nbv_gym.core.processes import worker_environment
 from nbv_gym.sweep.folder import SweepError
 from nbv_gym.sweep.worker import (
@@ -93,6 +93,14 @@ def check_scheduler(address: str | None) -> str | None:
             f"--scheduler {address!r}: expected HOST:PORT with a port from 1 to 65535; {usage}"
         )
     return address
+
+
+def reach_scheduler(address: str | None) -> None:
+    """:func:`check_scheduler`, then, for a scheduler's address, that a Dask scheduler answers
+    there (:func:`~nbv_gym.core.cluster.check_scheduler_answers`, bounded in time): called
+    before a command writes anything."""
+    if check_scheduler(address) not in (None, "local"):
+        check_scheduler_answers(cast(str, address))
 
 
 class PoolBackend:
@@ -255,7 +263,7 @@ class DaskBackend:
     @property
     def capacity(self) -> int:
         """Runs that can be in flight at once: the cluster's threads."""
-        return max(1, sum(self.client.nthreads().values()))
+        return max(1, sum(ask(self.client, "nthreads").values()))
 
     @property
     def in_flight(self) -> int:
@@ -296,7 +304,7 @@ class DaskBackend:
         """A future past its deadline, cancelled and its worker restarted; None if none is."""
         now = time.monotonic()
         late = [f for f, start in self._started.items() if now - start >= self.run_timeout_s]
-        if not late or not self.client.nthreads():
+        if not late or not ask(self.client, "nthreads"):
             return None
         future = late[0]
         del self._started[future]
@@ -309,7 +317,7 @@ class DaskBackend:
 
     def _check_workers(self) -> None:
         """Raise :class:`SweepError` once no worker has been connected for too long."""
-        if self.client.nthreads():
+        if ask(self.client, "nthreads"):
             self._no_workers_since = None
             return
         now = time.monotonic()

@@ -29,6 +29,7 @@ from nbv_gym.core.protocol import (
     EXPLORE_MAX_STEPS,
     NOISE_LEVELS,
     TIME_BUDGET_S,
+    check_effort,
     check_noise_level,
     check_task,
     task_episode,
@@ -112,11 +113,7 @@ class SweepConfig:
             value = getattr(self, key)
             check(1 <= value <= MAX_STEPS, key, f"must be from 1 to {MAX_STEPS}, got {value}")
         check(self.retries >= 0, "retries", f"must be ≥ 0, got {self.retries}")
-        check(
-            0 < self.time_budget_s < math.inf,
-            "time_budget_s",
-            f"must be a number of seconds > 0, got {self.time_budget_s}",
-        )
+        check_effort("time_budget_s", self.time_budget_s)
         check_task(self.task)
         check(
             0 < self.run_timeout_s < math.inf,

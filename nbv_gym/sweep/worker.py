@@ -144,6 +144,13 @@ def _deadline(timeout_s: float | None, start: float):
     return check
 
 
+def run_here(task: RunTask) -> dict[str, Any]:
+    """One run in the calling process, as a worker runs it (the same outcome as
+    :func:`execute_run`'s) but leaving the process as it is — its numba threads, ``sys.path``
+    — and raising what the run raises (a re-run of a scorecard's run, a test)."""
+    return _run(task, None)
+
+
 def _run(task: RunTask, on_step) -> dict[str, Any]:
     from nbv_gym.core.config import from_dict
     from nbv_gym.env.explore import EnvConfig

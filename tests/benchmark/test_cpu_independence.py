@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from nbv_gym.benchmark.references import REFERENCE_SUITE, load_references
-from tests.benchmark.test_references import same_bits
+from nbv_gym.benchmark.rerun import run_difference
 
 ROOT = Path(__file__).resolve().parents[2]  # the subprocess imports tests.helpers from here
 #: The stored run re-run: (policy, split, world, noise, repeat). A run whose Q curves moved on an
@@ -127,13 +127,12 @@ def _stored() -> dict:
         for r in card["runs"]
         if (r["split"], r["world"], r["noise"], r["repeat"]) == (split, world, noise, repeat)
     )
-    return {k: v for k, v in run.items() if k not in ("decision_time_s", "wall_time_s")}
+    return run
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("cpu", CPUS)
 def test_a_stored_run_gives_the_same_bits_on_another_cpu(cpu, tmp_path):
     now = _rerun(CPUS[cpu], tmp_path / "cache", guard="guarded" in cpu)
-    stored = _stored()
-    moved = [k for k in stored if not same_bits(now[k], stored[k])]
-    assert not moved, f"under {cpu} the stored run gives other {', '.join(moved)}"
+    moved = run_difference(_stored(), now)
+    assert moved is None, f"under {cpu} the stored run gives other figures ({moved})"

@@ -31,7 +31,8 @@ def card(
     path_m: float = 10.0,
 ):
     """A scorecard of ``suite`` whose runs score ``level`` + a small spread per repeat (Q, and
-    the area under Q(t) on time parts), driving ``path_m`` metres."""
+    the area under Q(t) on time parts), driving ``path_m`` metres in 2 scans (consistent with
+    itself: the clock, the curves and the area agree)."""
     from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S
 
     runs = []
@@ -54,12 +55,12 @@ def card(
                             q=q,
                             q_paper=q,
                             q_paper_70=q,
-                            discovered=0.5,
+                            discovered=0.75,
                             path_length_m=path_m,
                             elapsed_s=path_m + 20.0,
                             q_time_auc=q if part.task == "time" else None,
-                            q_time=[q] * len(TIME_GRID_S),
-                            q_path=[q] * len(PATH_GRID_M),
+                            q_time=[round(q, 7)] * len(TIME_GRID_S),  # curves are rounded
+                            q_path=[round(q, 7)] * len(PATH_GRID_M),
                             decision_time_s=0.001,
                             wall_time_s=0.1,
                         )
@@ -149,8 +150,8 @@ def test_scorecards_of_different_suites_are_refused_naming_them(tiny_suite, tmp_
 
 def test_scorecards_of_different_protocol_versions_are_refused(tiny_suite, tmp_path):
     a = write(tmp_path, card(tiny_suite, "a", 0.3))
-    b = write(tmp_path, card(tiny_suite, "b", 0.3, version=99))
-    with pytest.raises(LeaderboardError, match=r"protocol version 2; .*protocol version 99"):
+    b = write(tmp_path, card(tiny_suite, "b", 0.3, version=1))
+    with pytest.raises(LeaderboardError, match=r"protocol version 2; .*protocol version 1"):
         gather([a, b], references=False)
 
 
@@ -181,8 +182,8 @@ def test_the_board_ranks_by_the_time_task_marks_the_pareto_front_and_draws_q_t(
 ):
     paths = [
         write(tmp_path, card(tiny_suite, "near", 0.3, path_m=10.0)),
-        write(tmp_path, card(tiny_suite, "far", 0.5, path_m=300.0)),
-        write(tmp_path, card(tiny_suite, "worse", 0.2, path_m=50.0)),  # near: more Q, less path
+        write(tmp_path, card(tiny_suite, "far", 0.5, path_m=18.0)),  # within the 40 s budget
+        write(tmp_path, card(tiny_suite, "worse", 0.2, path_m=14.0)),  # near: more Q, less path
         write(tmp_path, card(tiny_suite, "cm-shorter", 0.25, path_m=9.96)),  # the same metre
     ]
     entries = gather(paths, references=False)
@@ -311,3 +312,20 @@ def test_the_references_of_another_suite_rank_by_name_and_suite_needs_no_scoreca
     assert {e.card["suite"]["name"] for e in entries} == {"quick"}
     with pytest.raises(LeaderboardError, match="--suite quick names whose references to rank"):
         gather([write(tmp_path, card(tiny_suite, "a", 0.3))], references=True, suite="quick")
+
+
+def test_two_cards_of_one_suite_hash_that_list_other_parts_are_refused(tiny_suite, tmp_path):
+    """The round-4 probe C24: an own-world card whose parts and runs were renamed to another
+    world kept its suite hash (an own suite's hash cannot be recomputed from the card) and was
+    ranked with the honest one, P(better) nan."""
+    from nbv_gym.benchmark.scorecard import card_aggregates
+
+    honest = write(tmp_path, card(tiny_suite, "honest", 0.3))
+    renamed = card(tiny_suite, "renamed", 0.3)
+    for part in renamed["suite"]["parts"]:
+        part["worlds"] = [w.replace("tiny-test", "elsewhere") for w in part["worlds"]]
+    for run in renamed["runs"]:
+        run["world"] = run["world"].replace("tiny-test", "elsewhere")
+    renamed["aggregates"] = card_aggregates(renamed["runs"], renamed["suite"]["parts"])
+    with pytest.raises(LeaderboardError, match=r"with one hash \(\w+\) but different suite\.parts"):
+        gather([honest, write(tmp_path, renamed)], references=False)

@@ -144,6 +144,7 @@ RERUNS = (
 
 @pytest.mark.parametrize(("name", "split", "world", "noise", "repeat"), RERUNS)
 def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, noise, repeat):
+    from nbv_gym.benchmark.rerun import run_difference
     from nbv_gym.benchmark.suiterun import part_config, run_figures
     from nbv_gym.core.config import to_dict
     from nbv_gym.sweep.worker import RunTask, _run
@@ -160,30 +161,10 @@ def test_a_stored_run_gives_the_same_figures_when_run_again(name, split, world, 
         for r in reference["runs"]
         if (r["split"], r["world"], r["noise"], r["repeat"]) == (split, world, noise, repeat)
     )
-    timings = ("decision_time_s", "wall_time_s")
-    # the figures the stored run holds (a newer protocol version adds figures, never moves one)
-    then = {k: v for k, v in then.items() if k not in timings}
-    now = json.loads(dumps_strict({k: now[k] for k in then}))
-    moved = [k for k in then if not same_bits(now[k], then[k])]
-    assert not moved, (
-        f"{name}'s run {spec.key} gives other {', '.join(moved)} "
-        f"({'; '.join(f'{k}: {_shown(now[k])} now, {_shown(then[k])} stored' for k in moved)}); "
-        f"{REGENERATE}"
-    )
-
-
-def same_bits(a, b) -> bool:
-    """``a`` equals ``b`` exactly (nested dicts and lists; NaN equals NaN, as JSON stores it)."""
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(same_bits(a[k], b[k]) for k in a)
-    if isinstance(a, list) and isinstance(b, list):
-        return len(a) == len(b) and all(same_bits(x, y) for x, y in zip(a, b, strict=True))
-    return a == b or (a != a and b != b)
-
-
-def _shown(value) -> str:
-    """A figure, cut short for a message."""
-    return repr(value) if len(repr(value)) < 60 else repr(value)[:57] + "…"
+    # the figures the stored run holds (a newer protocol version adds figures, never moves one),
+    # compared as `nbv-gym leaderboard --verify` compares a card's: bit for bit, timings aside
+    moved = run_difference(then, json.loads(dumps_strict(now)))
+    assert moved is None, f"{name}'s run {spec.key} gives other figures ({moved}); {REGENERATE}"
 
 
 @pytest.mark.parametrize("suite", SUITES)

@@ -22,7 +22,7 @@ SETTINGS = {
     "explore-layers": ("nbv_gym/Explore-v0", {"observation_layers": tuple(OPTIONAL_LAYERS)}),
     "terminates": (
         "nbv_gym/Explore-v0",
-        {"config": {"simulator": {"episode": {"discovered_target": 0.02}}}},
+        {"config": {"simulator": {"episode": {"discovered_target": 0.3}}}},  # at its first step
     ),
 }
 

@@ -124,7 +124,7 @@ class ClosingWorker:
     def result(self, timeout):
         raise RuntimeError("cannot schedule new futures after shutdown")
 
-    def scheduler_info(self, n_workers: int) -> dict:
+    def scheduler_info(self, n_workers: int, **bounded) -> dict:  # callback_timeout
         return {"workers": {"tcp://w": {"status": self.status}} if self.status else {}}
 
 

@@ -21,7 +21,7 @@ from nbv_gym.policies import PolicyError, load_policy
 from nbv_gym.rl import modelfile
 from nbv_gym.rl.config import TrainConfig
 from nbv_gym.rl.modelfile import describe_model
-from nbv_gym.rl.train import _load_or_create
+from nbv_gym.rl.train import check_resume
 
 
 class _ExploreSpacesEnv(gymnasium.Env):
@@ -137,4 +137,4 @@ def test_zips_that_are_not_models_are_refused(tmp_path, monkeypatch, masked_mode
 def test_resuming_from_another_algorithm_is_refused_before_loading(tmp_path):
     path = _save("PPO", tmp_path / "ppo.zip")
     with pytest.raises(ConfigError, match=r"Cannot resume MaskablePPO from .*ppo\.zip': PPO saved"):
-        _load_or_create(TrainConfig(algorithm="MaskablePPO"), None, path, verbose=0)
+        check_resume(TrainConfig(algorithm="MaskablePPO"), path)

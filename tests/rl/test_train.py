@@ -310,3 +310,54 @@ def test_sigterm_in_training_saves_a_checkpoint_like_ctrl_c(
     saved = sorted((out / "checkpoints").glob("model_*_steps.zip"))
     assert code == 130 and len(saved) == 1 and f"--resume {saved[0]}" in err, err
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored afterwards
+
+
+@pytest.mark.parametrize(
+    ("extra", "key"),
+    [
+        ('task = "time"\ntime_budget_s = 60.0\nlidar = "vlp-16"\n', "task"),
+        ('lidar = "vlp-16"\n', "lidar"),
+        (f"max_steps = {BUDGET + 1}\n", "max_steps"),
+    ],
+    ids=["task", "lidar", "budget"],
+)
+def test_a_resume_under_other_settings_is_refused_before_anything_is_written(
+    earlier, config_file, capsys, tmp_path, extra, key
+):
+    """The round-4 probe R09: a refused --resume rewrote the finished training's config.toml,
+    and `run` then ran the agent under the new task (R10)."""
+    out, before, options = earlier
+    other = tmp_path / "other.toml"
+    kept = [line for line in config_file.read_text().splitlines() if not line.startswith(key)]
+    other.write_text(extra + "\n".join(kept) + "\n")
+    options = [other if o == config_file else o for o in options]
+    code, err = _train_cli(
+        capsys, *options, "--timesteps", "48", "--resume", out / "final_model.zip"
+    )
+    assert code == 2 and "Traceback" not in err, err
+    assert f"the training that saved it ({out / 'config.toml'}) has {key} = " in err
+    assert "init_model" in err
+    assert _sha256s(out) == before
+
+
+def test_a_start_up_failure_leaves_nothing_that_refuses_a_corrected_rerun(
+    config_file, capsys, tmp_path, monkeypatch
+):
+    """The round-4 probe R07: a training that failed at start-up left config.toml and
+    system_info.txt, and the corrected rerun was refused as "an earlier training"."""
+
+    def broken(config, seed_offset=0):
+        raise ConfigError("train_worlds: the environments could not start")
+
+    monkeypatch.setattr("nbv_gym.rl.train.make_vec_env", broken)
+    out = tmp_path / "fresh"
+    options = ["--config", config_file, "--n-envs", "1", "--device", "cpu", "--no-progress",
+               "--out", out]  # fmt: skip
+    code, err = _train_cli(capsys, *options)
+    assert code == 2 and "could not start" in err
+    assert sorted(p.name for p in out.iterdir()) == [".nbv-gym-owner"]
+    # a folder that holds a start but no model is named as such, with the way on
+    (out / "config.toml").write_text("")
+    code, err = _train_cli(capsys, *options)
+    assert code == 2 and "holds the start of a training that saved no model" in err
+    assert "--force" in err and "--resume" not in err

@@ -43,7 +43,7 @@ def test_time_task_runs_its_time_budget_with_the_configured_effort_model():
     "values, match",
     [({"task": "race"}, "task: expected one of explore, budget, time"),
      ({"budget_scans": 0}, "budget_scans: must be from 1 to 10000"),
-     ({"time_budget_s": 0.0}, "time_budget_s: must be a number of seconds > 0")],
+     ({"time_budget_s": 0.0}, "time_budget_s: must be from 1 to 86,400 s, got 0.0")],
     ids=["task", "budget_scans", "time_budget_s"],
 )  # fmt: skip
 def test_bad_task_settings_are_refused(values, match):

@@ -310,3 +310,42 @@ def test_sigterm_in_training_saves_a_checkpoint_like_ctrl_c(
     saved = sorted((out / "checkpoints").glob("model_*_steps.zip"))
     assert code == 130 and len(saved) == 1 and f"--resume {saved[0]}" in err, err
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # restored afterwards
+
+
+def test_a_folder_whose_start_up_failed_takes_a_training_again(
+    config_file, capsys, tmp_path, monkeypatch
+):
+    """R07 of the fourth round: a training that fails before it learns leaves its config.toml
+    and system_info.txt; that is no earlier training, and a corrected run starts there."""
+
+    def crashed(config, seed_offset=0):
+        raise ZeroDivisionError("float division by zero")  # a crash while starting the envs
+
+    monkeypatch.setattr("nbv_gym.rl.train.make_vec_env", crashed)
+    out = tmp_path / "crashed"
+    options = ["--config", config_file, "--timesteps", str(STEPS), "--n-envs", "1",
+               "--device", "cpu", "--no-progress", "--out", out]  # fmt: skip
+    try:
+        code = _train_cli(capsys, *options)[0]
+    except ZeroDivisionError:  # a raw exception goes on as a traceback
+        code = 1
+    assert code != 0
+    assert {p.name for p in out.iterdir()} >= {"config.toml", "system_info.txt"}
+    monkeypatch.undo()
+    code, err = _train_cli(capsys, *options)
+    assert code == 0 and "earlier training" not in err, err
+    assert (out / "final_model.zip").is_file()
+
+
+def test_what_shows_an_earlier_training(tmp_path):
+    from nbv_gym.rl.train import earlier_training
+
+    (tmp_path / "logs" / "run-1").mkdir(parents=True)
+    (tmp_path / "logs" / "run-1" / "progress.csv").write_text("")
+    (tmp_path / "checkpoints").mkdir()
+    for name in ("config.toml", "system_info.txt"):
+        (tmp_path / name).write_text("x")
+    assert earlier_training(tmp_path) == []
+    (tmp_path / "logs" / "run-1" / "progress.csv").write_text("time/iterations\n1\n")
+    (tmp_path / "checkpoints" / "model_16_steps.zip").write_bytes(b"x")
+    assert earlier_training(tmp_path) == ["checkpoints", "logs"]

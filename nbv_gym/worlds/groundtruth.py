@@ -3,16 +3,15 @@
 The lattice is the project's voxel convention anchored at the origin: voxel ``(i, j, k)`` covers
 the half-open box ``[i, i + 1) × [j, j + 1) × [k, k + 1)`` times ``res``, so that every point lies
 in exactly one voxel. A voxel is occupied iff a triangle of the surface meets that box (exact
-triangle–box separating-axis test). A face lying on a voxel boundary therefore occupies the
-voxels on its upper side (+x, +y or +z), never both sides and never neither — the voxels its
-points fall in, as a point cloud's points do. One exception: faces lying in the ground plane
-z = 0 (the bases of assets standing on the ground, a scene's floor at its lowest point) mark
-nothing — the ground is not ground truth.
+triangle–box separating-axis test; a solid's interior marks nothing). A face lying on a voxel
+boundary therefore occupies the voxels on its upper side (+x, +y or +z), never both sides and
+never neither — the voxels its points fall in, as a point cloud's points do. One exception:
+faces lying in the ground plane z = 0 (the bases of assets standing on the ground, a scene's
+floor at its lowest point) mark nothing — the ground is not ground truth.
 
-Interiors mark nothing. A scene read from a file snaps its coordinates within
-``snap_m`` of a boundary onto it first (:func:`surface_voxels`), so that the file's float
-precision and a translation by whole voxels do not decide which voxels a face on the lattice
-occupies.
+A scene read from a file snaps its coordinates within ``snap_m`` of a boundary onto it first
+(:func:`surface_voxels`), so that the file's float precision and a translation by whole voxels
+do not decide which voxels a face on the lattice occupies.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from typing import cast
 
 import numpy as np
 
-from nbv_gym.core.errors import NbvGymError
+from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import Pose
 from nbv_gym.core.progress import say_if_compiling
@@ -150,7 +150,7 @@ class Exploration:
         self.world = world or load_world(spec)
         self._check_memory(self.world)
         self.lidar = Lidar.for_world(self.world, self.config.lidar, self.config.noise)
-        self.voxel_grid = _refine(self.goal_grid, self.config.mapping.map.resolution_m)
+        self.voxel_grid = self.config.mapping.scored_grid()
         self.quality = self._quality_tracker(self.world)
         self.goal_centres = self.goal_grid.xy_centres()
         band = (self.config.quality.unknown_low, self.config.quality.unknown_high)
@@ -233,7 +233,7 @@ class Exploration:
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
         world = f"{self.world.name}@{self.world.spec.digest()}"
-        save_map(self.occupancy, folder / "map.npz", world)
+        save_map(self.occupancy, folder / "map.npz", world, self.world.file_frame())
         self.statistics.save(folder / "statistics.npz")
 
     def clear(self) -> None:
@@ -369,7 +369,7 @@ class Exploration:
             mapping.statistics.cell_m,
             mapping.map.p_clamp_min,
         )
-        voxels = world.ground_truth.grid_voxels(self.voxel_grid)
+        voxels = scored_voxels(world, self.voxel_grid)
         return QualityTracker.from_voxels(voxels, self.voxel_grid.shape, config)
 
 
@@ -563,6 +563,19 @@ class Lookahead:
         return out
 
 
-def _refine(grid: GridSpec, res: float) -> GridSpec:
-    """``grid``'s box at cell size ``res``."""
-    return GridSpec.from_bounds(tuple(grid.low), tuple(grid.high), res)
+def scored_voxels(world: World, grid: GridSpec | None = None) -> np.ndarray:
+    """(k, 3) int64 indices into ``grid`` of the ground-truth voxels of ``world`` that map
+    quality scores (``grid``: where it is scored; by default the default mapping config's,
+    fitted to the world); ConfigError, naming the box, when there is none (Q would be
+    undefined)."""
+    grid = grid or MappingConfig().fitted(world.window_m).scored_grid()
+    voxels = world.ground_truth.grid_voxels(grid)
+    if len(voxels) == 0:
+        (x0, y0, z0), (x1, y1, z1) = grid.low, grid.high
+        raise ConfigError(
+            f"world {world.name} has no ground-truth voxel in the box where map quality is "
+            f"scored (x {x0:g} to {x1:g} m, y {y0:g} to {y1:g} m, z {z0:g} to {z1:g} m; "
+            "mapping.statistics): Q would be undefined. Its surfaces must rise above "
+            f"z = {z0:g} m inside that box"
+        )
+    return voxels

@@ -134,3 +134,40 @@ def keeps_contract(call: Callable[[], Any], input_size: int) -> Any:
         signal.signal(signal.SIGALRM, previous)
     assert peak <= limit, f"allocated {peak} bytes for {input_size} bytes of input"
     return outcome
+
+
+#: Side of the units of :func:`box_mesh` and :func:`box_surface_voxels`, metres.
+BOX_UNIT_M = 0.05
+
+
+def box_mesh(box: tuple[int, ...]):
+    """The closed axis-aligned box ``box`` = (x0, x1, y0, y1, z1) in units of
+    :data:`BOX_UNIT_M`, standing on z = 0: (8, 3) float64 vertices (metres), (12, 3) faces."""
+    import itertools
+
+    import numpy as np
+    import trimesh
+
+    x0, x1, y0, y1, z1 = np.asarray(box) * BOX_UNIT_M
+    corners = np.array(list(itertools.product((x0, x1), (y0, y1), (0.0, z1))))
+    return corners, trimesh.convex.convex_hull(corners).faces
+
+
+def box_surface_voxels(box: tuple[int, ...]) -> set[tuple[int, int, int]]:
+    """The 0.1 m ground-truth voxels of :func:`box_mesh`'s box worked out alone, in integers
+    (voxel i is the half-open [2i, 2i + 2) in its units): those that meet the closed box but
+    do not lie in the box less its walls and lid (open in x and y, [0, z1) in z — the base
+    on the ground marks nothing)."""
+    import itertools
+
+    x0, x1, y0, y1, z1 = box
+    bounds = ((x0, x1), (y0, y1), (0, z1))
+    ranges = [range(lo // 2 - 1, hi // 2 + 2) for lo, hi in bounds]
+    voxels = set()
+    for voxel in itertools.product(*ranges):
+        starts = [2 * i for i in voxel]
+        meets = all(s <= hi and lo < s + 2 for s, (lo, hi) in zip(starts, bounds, strict=True))
+        inner = [lo < s and s + 2 <= hi for s, (lo, hi) in zip(starts, bounds, strict=True)]
+        if meets and not (inner[0] and inner[1] and 0 <= starts[2] and starts[2] + 2 <= z1):
+            voxels.add(voxel)
+    return voxels

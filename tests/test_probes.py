@@ -868,3 +868,96 @@ def test_an_unreadable_numba_kernel_cache_is_one_line_naming_it(cli, here, monke
                         "--max-steps", "1", "--no-animation", "--out", here / "out"))  # fmt: skip
     assert "numba's cache of compiled kernels is unreadable (UnpicklingError" in line, line
     assert f"in {here / 'kernels'}; delete its *.nbi and *.nbc files" in line, line
+
+
+# -- A fifth round (issue #47): scene ground truth, evaluate on scenes, bounds -------------------
+
+#: Three boxes (3 × 3 × 4, 3 × 3 × 4 and 2 × 2 × 2 m) with every face on the half metre: the
+#: voxels worked out alone, (a + 1)(b + 1)(h + 1) − (a − 1)(b − 1) h voxels a box of a × b × h.
+HALF_METRE_BOXES = [
+    (-7.5, -4.5, -1.5, 1.5, 4.0),
+    (4.5, 7.5, -1.5, 1.5, 4.0),
+    (-1.0, 1.0, 7.0, 9.0, 2.0),
+]
+HALF_METRE_VOXELS = 2 * (31 * 31 * 41 - 29 * 29 * 40) + (21 * 21 * 21 - 19 * 19 * 20)
+
+
+def _box_ply(path: Path, shift=(0.0, 0.0, 0.0), kind="double", unused: str = "") -> None:
+    """The half-metre boxes moved by ``shift`` as an ASCII PLY of ``kind`` coordinates, with
+    the ``unused`` vertex line (if any) that no face uses."""
+    vertices, faces = [], []
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    for x0, x1, y0, y1, h in HALF_METRE_BOXES:
+        n = len(vertices)
+        vertices += [f"{x + shift[0]!r} {y + shift[1]!r} {z + shift[2]!r}"
+                     for x in (x0, x1) for y in (y0, y1) for z in (0.0, h)]  # fmt: skip
+        faces += [f"3 {n + q[0]} {n + q[k]} {n + q[k + 1]}" for q in quads for k in (1, 2)]
+    vertices += [unused] if unused else []
+    header = ["ply", "format ascii 1.0", f"element vertex {len(vertices)}"]
+    header += [f"property {kind} {axis}" for axis in "xyz"]
+    header += [f"element face {len(faces)}", "property list uchar int vertex_indices"]
+    path.write_text("\n".join([*header, "end_header", *vertices, *faces]) + "\n")
+
+
+@pytest.mark.parametrize(
+    ("shift", "kind", "unused"),
+    [
+        ((0.0, 0.0, 0.0), "double", ""),  # S01/S07: every face on the lattice gave 0 voxels
+        ((0.05, 0.05, 0.03), "double", ""),  # S15: 11,561 (floors and roofs by the last bit)
+        ((500_000.0, 5_000_000.0, 200.03), "double", ""),  # S16: 11,200 at UTM coordinates
+        ((0.05, 0.05, 0.03), "float", ""),  # S15: 13,483 from float32
+        ((0.0, 0.0, 0.0), "double", "1000000.0 1000000.0 0.0"),  # S14: asked 3.64 TiB
+        ((0.0, 0.0, 0.0), "double", "nan nan 0.0"),  # S13: "no free ground … up axis"
+    ],
+    ids=["half-metre", "lifted", "utm", "float32", "unused-far", "unused-nan"],
+)
+def test_boxes_on_the_lattice_import_with_their_voxels_however_written(
+    cli, here, shift, kind, unused
+):
+    _box_ply(here / "boxes.ply", shift, kind, unused)
+    result = cli("worlds", "import", "boxes.ply", "--out", "boxes.toml")
+    assert result.code == 0, result.err
+    # moved by 5 cm, the walls lie inside the voxel layers a face on the lattice occupies
+    assert f"{HALF_METRE_VOXELS:,} ground-truth voxels → boxes.toml" in result.out, result.out
+
+
+def test_a_world_without_ground_truth_where_q_is_scored_is_refused_in_one_line(cli, here):
+    """S10/X01: a flat mesh (0 voxels) and a slab 0.1 m thick (voxels below G's 0.2 m only) ran
+    with Q nan and made a scorecard its own leaderboard refused."""
+    (here / "flat.obj").write_text("v 0 0 1\nv 10 0 1\nv 10 10 1\nv 0 10 1\nf 1 2 3\nf 1 3 4\n")
+    line = one_line(cli("worlds", "import", "flat.obj", "--out", "flat.toml"))
+    assert "flat.obj: the scene has no ground truth" in line and not (here / "flat.toml").exists()
+    slab = "".join(
+        f"v {x} {y} {z}\n" for z in (0, 0.1) for x, y in ((0, 0), (9, 0), (9, 9), (0, 9))
+    )
+    slab += "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\n"
+    (here / "slab.obj").write_text(slab + "f 3 8 7\nf 4 1 5\nf 4 5 8\n")
+    (here / "slab.toml").write_text(
+        'name = "slab"\n[scene]\nfile = "slab.obj"\nclear_radius_m = 1.0\n'
+    )
+    for args in (["run", "--world", "slab.toml", "--no-animation", "--out", "r"],
+                 ["score", "closest-frontier", "--suite", "quick", "--world", "slab.toml", "--out", "s"]):  # fmt: skip
+        line = one_line(cli(*args))
+        assert "world slab has no ground-truth voxel in the box where map quality is scored" in line
+    assert not (here / "s").exists()
+
+
+def test_evaluate_refuses_a_grid_beyond_its_bound_in_one_line(cli, here):
+    """V09: a map and a scan 10 km apart asked 373 GiB."""
+    header = "ply\nformat ascii 1.0\nelement vertex 2\n" + "".join(
+        f"property float {a}\n" for a in ("x", "y", "z", "probability")
+    )
+    (here / "far.ply").write_text(
+        header + "end_header\n0.05 0.05 0.25 0.9\n10000.05 10000.05 0.25 0.9\n"
+    )
+    (here / "far.xyz").write_text("0.05 0.05 0.25\n10000.05 10000.05 0.25\n")
+    line = one_line(cli("evaluate", "--map", "far.ply", "--ground-truth", "far.xyz"))
+    assert "the grid to score is 100010 × 100010 × 10 voxels" in line and "MAX_GRID_VOXELS" in line
+
+
+def test_a_beam_pattern_without_bound_is_refused_in_one_line(cli, here):
+    """L07: 200,000 × 200,000 beams failed with a 298 GiB MemoryError in every run."""
+    (here / "beams.toml").write_text(SWEEP.format(policies='"closest-frontier"')
+                                     + "[env.simulator.lidar]\nn_channels = 200000\nn_azimuth = 200000\n")  # fmt: skip
+    line = one_line(cli("sweep", "beams.toml", "--out", "b", "--workers", "1"))
+    assert "env.simulator.lidar: n_channels: n_channels × n_azimuth" in line and "MAX_RAYS" in line

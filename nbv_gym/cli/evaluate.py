@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, cast
 
 import numpy as np
 import typer
@@ -25,6 +25,7 @@ from nbv_gym.metrics.evaluation import (
     load_ground_truth,
     load_probability,
     map_summary,
+    world_inputs,
     write_cuboid_csv,
     write_rows,
 )
@@ -120,21 +121,23 @@ def evaluate_map(
     from nbv_gym.metrics.wasserstein import wd_occ
 
     check_map_world(map_path, world)
-    cloud = ground_truth if _is_cloud(ground_truth) else None
-    if cloud is not None and world is not None:
-        raise MetricInputError("give exactly one of --world NAME and --ground-truth")
+    if (world is None) == (ground_truth is None):
+        raise MetricInputError(
+            "give exactly one of --world NAME and --ground-truth (a cloud, or a GT.npy grid)"
+        )
     if out is not None:
         claim_folder(out, "evaluate")
-    grid = benchmark_grid()
     with Stages(4) as stage:
         stage("reading the map")
-        if cloud is not None:
-            stage("reading the ground truth; the grid of Alg. 1")
-            prob, truth, grid = alg1_inputs(map_path, cloud)
+        stage("reading the ground truth; the grid scored")
+        if ground_truth is not None and _is_cloud(ground_truth):
+            prob, truth, grid = alg1_inputs(map_path, ground_truth)
+        elif world is not None:
+            prob, truth, grid = world_inputs(map_path, world)
         else:
+            grid = benchmark_grid()
             prob = load_probability(map_path, grid)
-            stage("reading the ground truth")
-            truth = load_ground_truth(world, ground_truth, grid)
+            truth = load_ground_truth(cast(Path, ground_truth), grid)
         stage("cov, L1, Q per cuboid (kernels compile on a first run, then are cached)")
         metrics = evaluate_cuboids(prob, truth)
         stage("WD_occ per cuboid")
@@ -147,8 +150,8 @@ def evaluate_map(
     return summary
 
 
-def _is_cloud(path: Path | None) -> bool:
-    return path is not None and path.suffix.lower() in TRUTH_CLOUD_SUFFIXES
+def _is_cloud(path: Path) -> bool:
+    return path.suffix.lower() in TRUTH_CLOUD_SUFFIXES
 
 
 def evaluate_clouds(

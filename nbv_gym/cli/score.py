@@ -84,6 +84,7 @@ def score(
     reach_scheduler(scheduler)  # a bad or silent scheduler fails before any folder
     chosen = get_suite(suite) if lidar is None else get_suite(suite).with_lidar(lidar)
     chosen = chosen.with_worlds(_absolute(world)) if world else chosen
+    _check_scored(world or [])
     with resumable(out / "parts"):
         card = score_policy(
             policy, chosen, out, workers, progress, (os.getcwd(),), scheduler=scheduler
@@ -91,6 +92,16 @@ def score(
     for split, agg in card["aggregates"].items():
         typer.echo(f"{split:<14} {agg['metric']:<11} IQM {interval_text(agg['all'], 'iqm')}")
     typer.echo(f"scorecard: {out / 'scorecard.json'} ({card['timing']['wall_time_s']:.0f} s)")
+
+
+def _check_scored(worlds: list[str]) -> None:
+    """Build (or read from the cache) each own world and refuse, before any run, one without
+    ground truth where map quality is scored (its runs would score Q as NaN)."""
+    from nbv_gym.simulator import scored_voxels
+    from nbv_gym.worlds import load_world
+
+    for world in worlds:
+        scored_voxels(load_world(world))
 
 
 def _absolute(worlds: list[str]) -> tuple[str, ...]:

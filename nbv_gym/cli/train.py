@@ -153,17 +153,10 @@ def _check_train_folder(out: Path, force: bool, resume: Path | None) -> bool:
     command's folder and that an earlier training is continued (``--resume``) or replaced
     (``--force``), never overwritten unasked."""
     from nbv_gym.core.outputs import OutputError, check_owner
-    from nbv_gym.rl.train import RUN_FILES
+    from nbv_gym.rl.train import earlier_training
 
     check_owner(out, "train")
-    earlier = [name for name in RUN_FILES if (out / name).exists()]
-    models = sorted(out.glob("*.zip")) + sorted(out.glob("checkpoints/*.zip"))
-    if earlier and not models and not (force or resume):
-        raise OutputError(
-            f"--out {out} holds the start of a training that saved no model "
-            f"({', '.join(earlier[:3])}): nothing to resume. Pass --force to replace it, or give "
-            "another folder."
-        )
+    earlier = earlier_training(out)
     if earlier and not (force or resume):
         raise OutputError(
             f"--out {out} holds an earlier training ({', '.join(earlier[:3])}"

@@ -102,8 +102,10 @@ def worlds_import(
         )
     if out.suffix != ".toml":
         raise typer.BadParameter(f"expected a .toml file, got {out}", param_hint="--out")
+    from nbv_gym.simulator import scored_voxels
+
     writable_file(out)
-    for line in import_scene(file, out, name, scale, up, ground):
+    for line in import_scene(file, out, name, scale, up, ground, scored_voxels, force):
         typer.echo(line)
 
 

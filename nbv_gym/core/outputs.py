@@ -206,6 +206,30 @@ def write_text(path: Path, text: str) -> None:
         f.write(text)
 
 
+def write_new(path: Path, text: str, advice: str = "give another path") -> None:
+    """Write ``text`` to ``path`` whole, unless a file is there: to a temporary sibling, then
+    linked to its name (atomic, and refused where the name was taken meanwhile, by another
+    process writing the same file). OutputError naming the file and ``advice`` when it exists;
+    nothing half-written either way."""
+    partial = temporary(path)
+    try:
+        partial.write_text(text, encoding="utf-8")
+        try:
+            os.link(partial, path)
+        except FileExistsError:
+            raise
+        except OSError:  # a file system without hard links: exclusive creation instead
+            with open(path, "x", encoding="utf-8") as stream:
+                stream.write(text)
+    except FileExistsError:
+        raise OutputError(
+            f"{path} exists: another process wrote it while this one ran; it is left as it is "
+            f"and this command wrote nothing ({advice})."
+        ) from None
+    finally:
+        partial.unlink(missing_ok=True)
+
+
 class atomic:
     """Open a temporary sibling of ``path`` for writing and rename it onto ``path`` on success."""
 

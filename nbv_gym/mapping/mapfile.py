@@ -1,9 +1,11 @@
 """Map files: an :class:`~nbv_gym.mapping.occupancy.OccupancyMap` saved to and read from a
 ``.npz`` file (the known voxels' flat indices and log-odds, the grid, the sensor model's
-parameters and the ``NAME@DIGEST`` of the world it maps)."""
+parameters, the ``NAME@DIGEST`` of the world it maps and, for a scene world, how the world's
+frame lies in the scene file's)."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -22,14 +24,18 @@ _PARAM_KEYS = ("p_hit", "p_miss", "p_clamp_min", "p_clamp_max", "p_occupied", "m
 MAX_LOAD_VOXELS = 1 << 28
 
 
-def save_map(occupancy: OccupancyMap, path: str | Path, world: str = "") -> None:
+def save_map(
+    occupancy: OccupancyMap, path: str | Path, world: str = "", frame: dict | None = None
+) -> None:
     """Write ``occupancy`` to a ``.npz`` file (known voxels only); ``world`` (``NAME@DIGEST`` of
     the world it maps, see :func:`recorded_world`) is recorded so that scoring it against
-    another world can be refused."""
+    another world can be refused, and ``frame`` (a scene world's, see :func:`recorded_frame`)
+    so that a cloud in the scene file's frame can be scored against it."""
     index, logodds = occupancy.voxels_at_least(0.0)
     arrays: dict[str, Any] = {
         "format": np.array(FORMAT),
         "world": np.array(world),
+        "frame": np.array(json.dumps(frame or {})),
         **occupancy.grid.to_arrays(),
         "params": np.array([occupancy.params[k] for k in _PARAM_KEYS]),
         "index": occupancy.grid.ravel(index).astype(np.int64),
@@ -43,6 +49,26 @@ def recorded_world(path: str | Path) -> str:
     none: maps saved before it was recorded, or without a world)."""
     world = read_npz(path, names=("world",)).get("world")
     return str(world) if world is not None and world.shape == () else ""
+
+
+def recorded_frame(path: str | Path) -> dict[str, Any]:
+    """How the frame of the world a saved map maps lies in its scene file's: ``offset_m`` (3,)
+    metres, ``scale`` and ``up`` (world = the file's points scaled to metres, turned z up, less
+    ``offset_m``); {} for a map of a procedural world, or one saved before frames were
+    recorded. :class:`DataFileError` for a record that is not such a frame."""
+    value = read_npz(path, names=("frame",)).get("frame")
+    if value is None or value.shape != () or not str(value) or str(value) == "{}":
+        return {}
+    try:
+        frame = json.loads(str(value))
+        offset = [float(x) for x in frame["offset_m"]]
+        scale, up = float(frame["scale"]), frame["up"]
+        valid = len(offset) == 3 and all(map(math.isfinite, [*offset, scale])) and scale > 0
+    except (ValueError, TypeError, KeyError):
+        valid = False
+    if not valid or up not in ("z", "y"):
+        raise DataFileError(f"{path}: its scene frame record is not one nbv-gym writes: {value}")
+    return {"offset_m": offset, "scale": scale, "up": up}
 
 
 def load_map(path: str | Path) -> OccupancyMap:

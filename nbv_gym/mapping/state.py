@@ -10,7 +10,7 @@ import numpy as np
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import NbvGymError
-from nbv_gym.core.grid import MAX_WINDOW_M
+from nbv_gym.core.grid import MAX_WINDOW_M, GridSpec
 from nbv_gym.mapping.navigation import NavigationConfig, NavigationLayer
 from nbv_gym.mapping.occupancy import MapConfig, OccupancyMap, ScanUpdate
 from nbv_gym.mapping.statistics import StatisticsConfig, ViewpointStatistics
@@ -58,6 +58,11 @@ class MappingConfig:
             f"to the map's {self.map.resolution_m} m voxels from {self.map.low_m}: its corner "
             "and cell size whole numbers of voxels",
         )
+
+    def scored_grid(self) -> GridSpec:
+        """G's box at the map's voxels: where map quality is scored against the ground truth."""
+        grid = self.statistics.grid()
+        return GridSpec.from_bounds(tuple(grid.low), tuple(grid.high), self.map.resolution_m)
 
     def fitted(self, window_m: tuple[float, float, float, float]) -> MappingConfig:
         """The config the simulator uses for a world placing assets in ``window_m``:

@@ -52,8 +52,8 @@ def load_probability(path: Path, grid) -> np.ndarray:
         prob = _load_npy(path)
         if prob.shape != grid.shape or not np.issubdtype(prob.dtype, np.floating):
             raise MetricInputError(
-                f"{path}: expected a float probability grid of shape {grid.shape} (the 0.1 m "
-                f"benchmark grid), got {prob.dtype} {prob.shape}"
+                f"{path}: expected a float probability grid of shape {grid.shape} (G's box at "
+                f"0.1 m voxels), got {prob.dtype} {prob.shape}"
             )
         bad = ~((prob >= 0) & (prob <= 1))  # NaN too
         if bad.any():
@@ -66,15 +66,48 @@ def load_probability(path: Path, grid) -> np.ndarray:
     return load_map(path).probability(grid)
 
 
-def load_ground_truth(world: str | None, path: Path | None, grid) -> np.ndarray:
-    """The (X, Y, Z) bool ground truth of ``world`` or of the ``.npy`` file ``path`` on ``grid``."""
-    if (world is None) == (path is None):
-        raise MetricInputError("give exactly one of --world NAME and --ground-truth GT.npy")
-    if world is not None:
-        from nbv_gym.worlds import load_world
+#: The largest grid ``evaluate`` scores, voxels: its arrays are dense (the map's log-odds and
+#: probabilities, the ground truth, the per-cuboid work), measured at 2.3 GB peak for a
+#: 900 × 1180 × 60 grid, about 30 bytes a voxel: some 4 GB at this size (a world some 150 m
+#: across at 0.1 m voxels, 6 m high).
+MAX_GRID_VOXELS = 1 << 27
 
-        return load_world(world).ground_truth.occupancy(grid)
-    if path is None or not path.is_file():
+
+def check_grid(grid, what: str, advice: str) -> None:
+    """MetricInputError, naming ``what`` was to be scored, its grid and ``advice``, when
+    ``grid`` has more than :data:`MAX_GRID_VOXELS` voxels (checked before allocating)."""
+    count = int(np.prod(grid.shape, dtype=np.float64))
+    if count <= MAX_GRID_VOXELS:
+        return
+    shape = " × ".join(map(str, grid.shape))
+    raise MetricInputError(
+        f"{what}: the grid to score is {shape} voxels of {grid.res:g} m ({count:,}; "
+        f"{_extent(grid.low, grid.high)} m), more than the limit of {MAX_GRID_VOXELS:,} "
+        f"(nbv_gym.metrics.evaluation.MAX_GRID_VOXELS: its arrays are dense); {advice}"
+    )
+
+
+def _extent(low, high) -> str:
+    return "×".join(f"[{a:.1f}, {b:.1f}]" for a, b in zip(low, high, strict=True))
+
+
+def world_inputs(map_path: Path, world: str):
+    """The probability grid, bool ground truth and :class:`GridSpec` of a map scored against
+    ``world``: over the box ``run`` scores it in — G's box (the default mapping config's)
+    fitted to the world's window, at the map's 0.1 m voxels — so that a map of a world larger
+    than the benchmark's 60 m scores as its run did."""
+    from nbv_gym.mapping.state import MappingConfig
+    from nbv_gym.worlds import load_world
+
+    built = load_world(world)
+    grid = MappingConfig().fitted(built.window_m).scored_grid()
+    check_grid(grid, f"world {built.name}", "score a map of a smaller world")
+    return load_probability(map_path, grid), built.ground_truth.occupancy(grid), grid
+
+
+def load_ground_truth(path: Path, grid) -> np.ndarray:
+    """The (X, Y, Z) bool ground truth of the ``.npy`` file ``path`` on ``grid``."""
+    if not path.is_file():
         raise MetricInputError(f"{path}: the ground-truth file {missing_file(path)}")
     truth = _load_npy(path)
     if truth.shape != grid.shape or truth.dtype != bool:
@@ -187,10 +220,16 @@ def alg1_inputs(map_path: Path, truth_path: Path, res: float = 0.1):
     ``map_path``: a saved map (.npz), an OctoMap (.bt, .ot; the octomap extra) or a cloud of
     known voxel centres with a ``probability`` property (.ply, as ``nbv-gym export --min-p 0``
     writes); ``truth_path``: any point
-    cloud (PLY, PCD, XYZ; LAS/LAZ with the las extra)."""
+    cloud (PLY, PCD, XYZ; LAS/LAZ with the las extra). A saved map of a scene world is in
+    that world's frame: the cloud is taken in the scene file's frame (its units and up axis)
+    and moved into the world's as the world's own ground truth was (:func:`_truth_voxels`)."""
     known, probability, box = _map_voxels(map_path, res)
-    truth = _truth_voxels(truth_path, res)
+    truth = _truth_voxels(truth_path, res, _map_frame(map_path))
     grid = alg1_grid(box, truth, res, map_path, truth_path)
+    check_grid(
+        grid, f"{map_path} against {truth_path}",
+        "crop the map or the cloud to the part to compare",
+    )  # fmt: skip
     offset = np.rint(np.asarray(grid.origin) / res).astype(np.int64)
     prob = np.full(grid.shape, 0.5, np.float32)
     inside = grid.contains(known - offset)
@@ -223,8 +262,7 @@ def alg1_grid(box: np.ndarray, truth: np.ndarray, res: float, map_path, truth_pa
 
 
 def _box(voxels: np.ndarray, res: float) -> str:
-    low, high = voxels.min(axis=0) * res, (voxels.max(axis=0) + 1) * res
-    return "×".join(f"[{a:.1f}, {b:.1f}]" for a, b in zip(low, high, strict=True))
+    return _extent(voxels.min(axis=0) * res, (voxels.max(axis=0) + 1) * res)
 
 
 def _map_voxels(path: Path, res: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -310,14 +348,38 @@ def _probability_cloud(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return centres, probability
 
 
-def _truth_voxels(path: Path, res: float) -> np.ndarray:
-    """(k, 3) int64 unique voxel indices holding a point of the ground-truth cloud."""
+def _map_frame(path: Path) -> dict:
+    """The scene frame a saved map records ({} for other maps: a procedural world's, or files
+    that are not nbv-gym maps)."""
     from nbv_gym.core.errors import DataFileError
-    from nbv_gym.worlds.scenes.clouds import cloud_voxels, read_cloud
+    from nbv_gym.mapping.mapfile import recorded_frame
+
+    if path.suffix != ".npz":
+        return {}
+    try:
+        return recorded_frame(path)
+    except DataFileError as error:
+        raise MetricInputError(str(error)) from None
+
+
+def _truth_voxels(path: Path, res: float, frame: dict) -> np.ndarray:
+    """(k, 3) int64 unique voxel indices holding a point of the ground-truth cloud: in the
+    world frame of ``frame`` (a scene world's file frame, said), as read without one."""
+    from nbv_gym.core.errors import DataFileError
+    from nbv_gym.core.progress import say
+    from nbv_gym.worlds.scenes.clouds import cloud_voxels, read_cloud, world_voxels
 
     if not path.is_file():
         raise MetricInputError(f"{path}: the ground-truth file {missing_file(path)}")
     try:
-        return cloud_voxels(read_cloud(path), res)
+        points = read_cloud(path)
     except DataFileError as error:
         raise MetricInputError(str(error)) from None
+    if not frame:
+        return cloud_voxels(points, res)
+    moved = ", ".join(f"{0.0 - v:g}" for v in frame["offset_m"])  # 0.0 - 0.0: no "-0"
+    say(
+        f"the map is in its scene world's frame: {path} is read in the scene file's (scale "
+        f"{frame['scale']:g}, up {frame['up']}) and moved by ({moved}) m into it"
+    )
+    return world_voxels(points, frame, res)

@@ -41,6 +41,21 @@ RUN_FILES = ("config.toml", "system_info.txt", "logs", "checkpoints", "eval", BE
              FINAL_MODEL, EPISODES_CSV, CURVE_PNG)  # fmt: skip
 
 
+def earlier_training(out: Path) -> list[str]:
+    """The names in ``out`` that show a training learned there: a model, the episode log or the
+    learning curve, a file in ``checkpoints/`` or ``eval/``, a logged update (a row in a
+    ``logs/*/progress.csv``). What a training writes before it learns (``config.toml``,
+    ``system_info.txt``, empty logs) shows none: a folder whose start-up failed is no earlier
+    training, and a training may start there again."""
+    found = [name for name in (FINAL_MODEL, BEST_MODEL, EPISODES_CSV, CURVE_PNG)
+             if (out / name).exists()]  # fmt: skip
+    found += [name for name in ("checkpoints", "eval")
+              if any(p.is_file() for p in (out / name).rglob("*"))]  # fmt: skip
+    if any(p.stat().st_size for p in (out / "logs").glob("*/progress.csv")):
+        found.append("logs")
+    return found
+
+
 class TrainingInterrupted(NbvGymError):
     """Training was stopped with Ctrl-C; the model so far is saved as a checkpoint, which the
     message names with the ``--resume`` that continues from it."""

@@ -101,6 +101,12 @@ class RangeNoise:
 SENSOR_RANGE_M: float = 20.0
 
 
+#: The most rays of one scan (``n_channels`` · ``n_azimuth``): 8 × the densest preset's
+#: (os1-128, 131,072). A scan holds ~100 bytes a ray (directions, distances, returns), and the
+#: ray casting's time grows with them.
+MAX_RAYS = 1 << 20
+
+
 @dataclass(frozen=True)
 class LidarConfig:
     """The Ouster OS1-16 as simulated by the authors (docs/protocol.md#lidar).
@@ -123,6 +129,14 @@ class LidarConfig:
     def __post_init__(self) -> None:
         check(self.n_channels >= 1, "n_channels", "must be ≥ 1")
         check(self.n_azimuth >= 1, "n_azimuth", "must be ≥ 1")
+        rays = self.n_channels * self.n_azimuth
+        check(
+            rays <= MAX_RAYS,
+            "n_channels",
+            f"n_channels × n_azimuth = {self.n_channels:,} × {self.n_azimuth:,} = {rays:,} rays a "
+            f"scan, more than {MAX_RAYS:,} (nbv_gym.sensor.lidar.MAX_RAYS); use fewer channels "
+            "or azimuth samples",
+        )
         check(
             self.elevation_min_rad <= self.elevation_max_rad,
             "elevation_min_rad",

@@ -1,9 +1,17 @@
 """Ground truth: the voxels of a fixed lattice through which a mesh surface passes (docs/protocol.md#worlds).
 
 The lattice is the project's voxel convention anchored at the origin: voxel ``(i, j, k)`` covers
-``[i, i + 1) × [j, j + 1) × [k, k + 1)`` times ``res``. A voxel is occupied iff a triangle of the
-surface intersects its interior (exact triangle–box separating-axis test), so interiors and faces
-lying exactly on voxel boundaries (such as bases standing on z = 0) mark nothing.
+the half-open box ``[i, i + 1) × [j, j + 1) × [k, k + 1)`` times ``res``, so that every point lies
+in exactly one voxel. A voxel is occupied iff a triangle of the surface meets that box (exact
+triangle–box separating-axis test; a solid's interior marks nothing). A face lying on a voxel
+boundary therefore occupies the voxels on its upper side (+x, +y or +z), never both sides and
+never neither — the voxels its points fall in, as a point cloud's points do. One exception:
+faces lying in the ground plane z = 0 (the bases of assets standing on the ground, a scene's
+floor at its lowest point) mark nothing — the ground is not ground truth.
+
+A scene read from a file snaps its coordinates within ``snap_m`` of a boundary onto it first
+(:func:`surface_voxels`), so that the file's float precision and a translation by whole voxels
+do not decide which voxels a face on the lattice occupies.
 """
 
 from __future__ import annotations
@@ -60,13 +68,24 @@ class GroundTruth:
 SLAB_VOXELS = 1 << 27
 
 
-def surface_voxels(vertices: FloatArray, faces: IntArray, res: float) -> GroundTruth:
-    """The :class:`GroundTruth` of a triangle mesh: (V, 3) ``vertices`` metres, (F, 3) ``faces``.
+def surface_voxels(
+    vertices: FloatArray, faces: IntArray, res: float, snap_m: float = 0.0
+) -> GroundTruth:
+    """The :class:`GroundTruth` of a triangle mesh: (V, 3) ``vertices`` metres, (F, 3) ``faces``
+    (see the module doc for the rule). ``snap_m`` > 0: coordinates closer than that (metres) to
+    a voxel boundary are taken to lie on it (0: as given, the procedural worlds' case).
 
     The voxels are marked in x slabs of at most :data:`SLAB_VOXELS` (the mesh's bounding box of a
     500 m world at 0.1 m would be gigabytes), each slab read out before the next is marked."""
     triangles = np.asarray(vertices, np.float64)[faces]
     triangles /= res  # in place: the same values as a new array, without a second copy
+    if snap_m > 0:
+        nearest = np.rint(triangles)
+        on = np.abs(triangles - nearest) < snap_m / res
+        triangles[on] = nearest[on]
+    triangles = triangles[~(triangles[:, :, 2] == 0.0).all(axis=1)]  # faces on the ground
+    if len(triangles) == 0:
+        return GroundTruth(np.empty((0, 3), np.int32), float(res))
     low = np.floor(triangles.reshape(-1, 3).min(axis=0)).astype(np.int64) - 1
     high = np.floor(triangles.reshape(-1, 3).max(axis=0)).astype(np.int64) + 2
     triangles -= low
@@ -85,7 +104,7 @@ def surface_voxels(vertices: FloatArray, faces: IntArray, res: float) -> GroundT
 
 @numba.njit(cache=True)
 def _mark_triangles(triangles, chosen, mask, x0):
-    """Mark in ``mask`` every unit voxel whose interior meets one of the ``chosen`` triangles
+    """Mark in ``mask`` every unit voxel (half-open box) that meets one of the ``chosen`` triangles
     (coordinates in voxels), ``mask[i - x0]`` holding voxel ``i`` along x (a slab of the whole
     mask)."""
     for t in chosen:
@@ -105,9 +124,9 @@ def _mark_triangles(triangles, chosen, mask, x0):
 
 @numba.njit(cache=True)
 def _overlaps(tri, cx, cy, cz):
-    """Whether a triangle (3, 3) meets the open unit box centred at (cx, cy, cz): the
-    separating-axis test of Akenine-Möller on the 13 candidate axes, strict so that touching
-    does not count."""
+    """Whether a triangle (3, 3) meets the half-open unit box [c − ½, c + ½)³ centred at (cx,
+    cy, cz): the separating-axis test of Akenine-Möller on the 13 candidate axes, on each axis
+    with the box's projection closed at an end the box reaches and open at one it does not."""
     v = np.empty((3, 3))
     for n in range(3):
         v[n, 0] = tri[n, 0] - cx
@@ -118,7 +137,7 @@ def _overlaps(tri, cx, cy, cz):
         for a in range(3):
             e[n, a] = v[(n + 1) % 3, a] - v[n, a]
     for a in range(3):  # box face normals
-        if min(v[0, a], v[1, a], v[2, a]) >= 0.5 or max(v[0, a], v[1, a], v[2, a]) <= -0.5:
+        if min(v[0, a], v[1, a], v[2, a]) >= 0.5 or max(v[0, a], v[1, a], v[2, a]) < -0.5:
             return False
     for n in range(3):  # edge × box axis
         for a in range(3):
@@ -133,10 +152,19 @@ def _overlaps(tri, cx, cy, cz):
 
 @numba.njit(cache=True)
 def _separates(v, axis):
+    """Whether ``axis`` separates the triangle ``v`` (3, 3), box-centred, from the half-open
+    box: the box projects onto [−r, r]; its lower end belongs to it iff no component of
+    ``axis`` is negative (the corner reaching it has no coordinate + ½), its upper end iff none
+    is positive, and a triangle touching an end the box does not reach is apart."""
     radius = 0.5 * (abs(axis[0]) + abs(axis[1]) + abs(axis[2]))
     if radius == 0.0:
         return False
     p0 = v[0, 0] * axis[0] + v[0, 1] * axis[1] + v[0, 2] * axis[2]
     p1 = v[1, 0] * axis[0] + v[1, 1] * axis[1] + v[1, 2] * axis[2]
     p2 = v[2, 0] * axis[0] + v[2, 1] * axis[1] + v[2, 2] * axis[2]
-    return min(p0, p1, p2) >= radius or max(p0, p1, p2) <= -radius
+    low, high = min(p0, p1, p2), max(p0, p1, p2)
+    if low > radius or high < -radius:
+        return True
+    positive = axis[0] > 0.0 or axis[1] > 0.0 or axis[2] > 0.0
+    negative = axis[0] < 0.0 or axis[1] < 0.0 or axis[2] < 0.0
+    return (low == radius and positive) or (high == -radius and negative)

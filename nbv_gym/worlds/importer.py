@@ -10,14 +10,19 @@ and z otherwise (``--up`` says it instead). The spec pins the file's SHA-256.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.worlds.scenes.files import MAX_SIZE_M, MIN_SIZE_M, check_size, to_metres_z_up
 from nbv_gym.worlds.scenes.spec import detect_kind
+
+if TYPE_CHECKING:
+    from nbv_gym.worlds.world import World
 
 #: Candidate scales, in the order they are tried: metres, millimetres, centimetres.
 UNITS = {1.0: "metres", 0.001: "millimetres", 0.01: "centimetres"}
@@ -62,7 +67,7 @@ def _geometry(path: Path, kind: str) -> tuple[FloatArray, int]:
     from nbv_gym.worlds.scenes.files import read_mesh
 
     vertices, faces = read_mesh(path)
-    return vertices[np.unique(faces)], len(faces)
+    return vertices, len(faces)
 
 
 def _guess_scale(points: FloatArray, up: str) -> float:
@@ -111,11 +116,22 @@ def _quoted(text: str) -> str:
 
 
 def import_scene(
-    file: Path, out: Path, name: str | None, scale: float | None, up: str | None, ground: str
+    file: Path,
+    out: Path,
+    name: str | None,
+    scale: float | None,
+    up: str | None,
+    ground: str,
+    accept: Callable[[World], object] | None = None,
+    replace: bool = False,
 ) -> list[str]:
-    """Write the spec of ``file`` to ``out`` once its world is built (and cached); the lines to
-    show. Any problem raises before ``out`` is written."""
+    """Write the spec of ``file`` to ``out`` once its world is built (and cached) and has passed
+    ``accept`` (a check that raises, e.g. that the world has ground truth where map quality is
+    scored); the lines to show. Any problem raises before ``out`` is written, and ``out`` is
+    written whole (``replace``: replacing the file there; otherwise only if none is there by
+    then, another import of the same ``out`` having finished first, say)."""
     from nbv_gym.core.config import check
+    from nbv_gym.core.outputs import write_new, write_text
     from nbv_gym.worlds.scenes.spec import file_sha256, parse_scene_spec
     from nbv_gym.worlds.world import load_world
 
@@ -132,7 +148,12 @@ def import_scene(
 
     spec = parse_scene_spec(parse_toml(text, str(out)), str(out), out.resolve().parent)
     world = load_world(spec)
-    out.write_text(text)
+    if accept is not None:
+        accept(world)
+    if replace:
+        write_text(out, text)
+    else:
+        write_new(out, text, "give another --out, or --force to replace it")
     x0, y0, x1, y1 = world.window_m
     start = np.asarray(world.scene_frame.offset_m)
     what = "triangles" if summary.kind == "mesh" else "points"

@@ -30,8 +30,9 @@ from nbv_gym.worlds.scenes.spec import SceneSpec
 from nbv_gym.worlds.spec import ASSET_TYPES, AnySpec, WorldSpec, load_spec
 from nbv_gym.worlds.trees import grow_tree, tree_mesh
 
-#: Bump when generation changes, so cached worlds are rebuilt.
-GENERATOR_VERSION = 1
+#: Bump when generation changes, so cached worlds are rebuilt (2: a face on a voxel boundary
+#: occupies the voxels on its upper side; the benchmark worlds' ground truth is unchanged).
+GENERATOR_VERSION = 2
 #: Environment variable that moves the world cache.
 CACHE_ENV = "NBV_GYM_CACHE"
 
@@ -93,6 +94,15 @@ class World:
         if self.frame is None:
             raise ValueError(f"world {self.name!r} is procedural: it has no scene frame")
         return self.frame
+
+    def file_frame(self) -> dict[str, Any] | None:
+        """How a scene world's frame lies in its file's: ``offset_m`` (3,) metres, ``scale`` and
+        ``up`` (world = the file's points scaled to metres, turned z up, less ``offset_m``);
+        None for a procedural world."""
+        if not isinstance(self.spec, SceneSpec):
+            return None
+        scene = self.spec.scene
+        return {"offset_m": list(self.scene_frame.offset_m), "scale": scene.scale, "up": scene.up}
 
     def check_inside(self, low_xy: tuple[float, float], high_xy: tuple[float, float], what: str):
         """Raise :class:`ConfigError` unless :attr:`window_m` lies in the box ``low_xy``–

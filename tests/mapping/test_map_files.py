@@ -64,3 +64,29 @@ def test_statistics_arrays_must_have_the_grid_shape(tmp_path):
     arrays["shape"] = np.array([3000, 3000, 2000])
     with pytest.raises(DataFileError, match=r"expected 'n_obs' of shape \(3000×3000×2000\)"):
         ViewpointStatistics.load(_write(tmp_path, arrays))
+
+
+@pytest.mark.parametrize(
+    "frame",
+    ['{"offset_m": [1.0, 2.0], "scale": 1.0, "up": "z"}', '{"offset_m": [0, 0, 0]}',
+     '{"offset_m": [0, 0, NaN], "scale": 1.0, "up": "z"}', '{"offset_m": [0, 0, 0], '
+     '"scale": -1.0, "up": "z"}', '{"offset_m": [0, 0, 0], "scale": 1.0, "up": "x"}', "[1, 2]"],
+    ids=["two-numbers", "no-scale", "nan", "negative-scale", "x-up", "a-list"],
+)  # fmt: skip
+def test_a_scene_frame_record_that_is_no_frame_is_refused(tmp_path, saved_map, frame):
+    from nbv_gym.mapping.mapfile import recorded_frame
+
+    with pytest.raises(DataFileError, match="its scene frame record is not one nbv-gym writes"):
+        recorded_frame(_write(tmp_path, {**saved_map, "frame": np.array(frame)}))
+
+
+def test_a_scene_frame_is_recorded_and_read_back_and_none_is_empty(tmp_path, saved_map):
+    from nbv_gym.mapping.mapfile import recorded_frame
+
+    frame = {"offset_m": [99.8, 49.8, 20.0], "scale": 0.001, "up": "y"}
+    occupancy = load_map(_write(tmp_path, saved_map))
+    save_map(occupancy, tmp_path / "scene.npz", "scan@0123", frame)
+    assert recorded_frame(tmp_path / "scene.npz") == frame
+    assert recorded_frame(_write(tmp_path, saved_map)) == {}  # a procedural world's map
+    older = {k: v for k, v in saved_map.items() if k != "frame"}
+    assert recorded_frame(_write(tmp_path, older)) == {}  # saved before frames were recorded

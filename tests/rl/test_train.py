@@ -356,8 +356,25 @@ def test_a_start_up_failure_leaves_nothing_that_refuses_a_corrected_rerun(
     code, err = _train_cli(capsys, *options)
     assert code == 2 and "could not start" in err
     assert sorted(p.name for p in out.iterdir()) == [".nbv-gym-owner"]
-    # a folder that holds a start but no model is named as such, with the way on
-    (out / "config.toml").write_text("")
-    code, err = _train_cli(capsys, *options)
-    assert code == 2 and "holds the start of a training that saved no model" in err
-    assert "--force" in err and "--resume" not in err
+    # a start that learned nothing (its settings written, nothing learned) is no earlier
+    # training either: the corrected run starts there
+    for name in ("config.toml", "system_info.txt"):
+        (out / name).write_text("x")
+    monkeypatch.undo()
+    code, err = _train_cli(capsys, *options, "--timesteps", str(STEPS))
+    assert code == 0 and "earlier training" not in err, err
+    assert (out / "final_model.zip").is_file()
+
+
+def test_what_shows_an_earlier_training(tmp_path):
+    from nbv_gym.rl.train import earlier_training
+
+    (tmp_path / "logs" / "run-1").mkdir(parents=True)
+    (tmp_path / "logs" / "run-1" / "progress.csv").write_text("")
+    (tmp_path / "checkpoints").mkdir()
+    for name in ("config.toml", "system_info.txt"):
+        (tmp_path / name).write_text("x")
+    assert earlier_training(tmp_path) == []
+    (tmp_path / "logs" / "run-1" / "progress.csv").write_text("time/iterations\n1\n")
+    (tmp_path / "checkpoints" / "model_16_steps.zip").write_bytes(b"x")
+    assert earlier_training(tmp_path) == ["checkpoints", "logs"]

@@ -165,3 +165,17 @@ def test_the_first_poses_cast_is_reused_bit_for_bit():
     assert len(again) > 100
     for name in ("points_sensor", "ranges", "ray_index", "points_map"):
         np.testing.assert_array_equal(getattr(again, name), getattr(expected, name))
+
+
+@pytest.mark.parametrize("beams", [{"n_channels": 200_000, "n_azimuth": 200_000},
+                                   {"n_channels": 2048, "n_azimuth": 513}])  # fmt: skip
+def test_a_beam_pattern_beyond_the_ray_bound_is_refused_naming_its_keys(beams):
+    """L07/L10 of the fourth round: 200,000 × 200,000 beams asked 298 GiB of a scan."""
+    from nbv_gym.core.errors import ConfigError
+    from nbv_gym.sensor.lidar import MAX_RAYS
+
+    with pytest.raises(
+        ConfigError, match=rf"n_channels: n_channels × n_azimuth = .* more than {MAX_RAYS:,}"
+    ):
+        LidarConfig(**beams)
+    assert len(LidarConfig(n_channels=2048, n_azimuth=512).directions()) == MAX_RAYS

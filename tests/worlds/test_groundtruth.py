@@ -11,6 +11,7 @@ from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.worlds import shapes, surface_voxels
 from nbv_gym.worlds.groundtruth import GroundTruth
+from tests.helpers import box_mesh, box_surface_voxels
 
 
 def shell(low, high):
@@ -28,15 +29,52 @@ def test_known_box_is_exactly_its_surface_voxels():
     assert set(map(tuple, truth.voxels)) == shell((-10, -10, 0), (10, 10, 20))
 
 
-def test_a_face_on_a_voxel_boundary_marks_neither_side():
-    # the box stands on z = 0 exactly: its base lies on the boundary between layers −1 and 0
+def test_a_face_on_a_voxel_boundary_occupies_the_voxels_on_its_upper_side():
+    # the box stands on z = 0 exactly (its base in the ground plane marks nothing) and its lid
+    # at z = 2.0 lies on the boundary between layers 19 and 20: it occupies layer 20
     vertices, faces = shapes.cuboid()
     truth = surface_voxels(vertices + [0.05, 0.05, 0.0], faces, 0.1)
-    assert truth.voxels[:, 2].min() == 0
-    bottom = truth.voxels[truth.voxels[:, 2] == 0]
-    assert len(bottom) == 4 * 20  # only the walls' ring, no base
-    # and the lid at z = 2.0 (a boundary) is not marked either
-    assert truth.voxels[:, 2].max() == 19
+    base = {(i, j, 0) for i in range(-9, 10) for j in range(-9, 10)}
+    assert set(map(tuple, truth.voxels)) == shell((-10, -10, 0), (10, 10, 20)) - base
+
+
+@pytest.mark.parametrize(
+    "box",  # (x0, x1, y0, y1, z1) in 5 cm units, on z = 0
+    [
+        (-150, -90, -30, 30, 80),  # every face on the lattice (the half metre)
+        (-120, -60, 40, 100, 40),  # on whole metres
+        (21, 61, -59, -19, 41),  # every face midway between boundaries
+        (10, 50, 11, 51, 30),  # x and the lid on the lattice, y not
+        (6, 26, 14, 42, 34),  # on the lattice, none of them exact in binary (0.3, 0.7, …)
+    ],
+    ids=["half-metre", "metre", "midway", "mixed", "tenths"],
+)
+def test_a_box_gives_the_voxels_worked_out_alone(box):
+    truth = surface_voxels(*box_mesh(box), 0.1, snap_m=1e-3)
+    assert set(map(tuple, truth.voxels.tolist())) == box_surface_voxels(box)
+
+
+def test_a_box_on_the_lattice_gives_its_counted_voxels():
+    # a × b × h voxels: (a + 1)(b + 1)(h + 1) voxels meet the closed box, (a − 1)(b − 1) h
+    # of them hold no wall nor lid (the base marks nothing)
+    for (a, b, h), box in [((30, 30, 40), (-150, -90, -30, 30, 80)),
+                           ((20, 20, 20), (-20, 20, 140, 180, 40))]:  # fmt: skip
+        count = (a + 1) * (b + 1) * (h + 1) - (a - 1) * (b - 1) * h
+        assert len(surface_voxels(*box_mesh(box), 0.1, snap_m=1e-3).voxels) == count
+
+
+def test_the_voxels_do_not_depend_on_float_precision_or_whole_voxel_shifts():
+    """The same boxes from float32 coordinates, and moved by whole voxels far from the origin,
+    occupy the same voxels, moved by the same whole voxels."""
+    boxes = [(-150, -90, -30, 30, 80), (6, 26, 14, 42, 34)]
+    vertices, faces = shapes.concatenate([box_mesh(box) for box in boxes])
+    plain = surface_voxels(vertices, faces, 0.1, snap_m=1e-3).voxels
+    rounded = vertices.astype(np.float32).astype(np.float64)  # 0.7 → 0.69999998807907…
+    assert not np.array_equal(surface_voxels(rounded, faces, 0.1).voxels, plain)
+    assert np.array_equal(surface_voxels(rounded, faces, 0.1, snap_m=1e-3).voxels, plain)
+    far = vertices + [500_000.0, 5_000_000.0, 0.0]
+    moved = surface_voxels(far, faces, 0.1, snap_m=1e-3).voxels
+    assert np.array_equal(moved - [5_000_000, 50_000_000, 0], plain)
 
 
 def test_a_diagonal_triangle_marks_the_voxels_it_crosses():

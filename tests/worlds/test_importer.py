@@ -14,6 +14,15 @@ from nbv_gym.worlds import load_spec, shapes
 from nbv_gym.worlds.importer import summarise
 from tests.helpers import run_cli
 
+#: A 10 m square 1 m up (lifted to the ground plane: no ground truth), and a slab 0.1 m thick
+#: (ground truth below the 0.2 m where map quality is scored only).
+FLAT = "v 0 0 1\nv 10 0 1\nv 10 10 1\nv 0 10 1\nf 1 2 3\nf 1 3 4\n"
+SLAB = "".join(
+    f"v {x} {y} {z}\n" for z in (0, 0.1) for x, y in ((0, 0), (10, 0), (10, 10), (0, 10))
+)
+SLAB += "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\n"
+SLAB += "f 3 8 7\nf 4 1 5\nf 4 5 8\n"
+
 
 def write_scene(path, scale: float = 1.0, up: str = "z") -> None:
     """Six 2 m boxes around the origin, in units of ``scale`` metres, ``up`` as up."""
@@ -72,8 +81,10 @@ def test_import_preview_and_run_a_scene_world(tmp_path):
         ("v nan 0 0\nv 10 0 0\nv 0 10 0\nf 1 2 3\n", "1 of 3 vertices are NaN or infinite"),
         ("v 0 0 0\nv 2000 0 0\nv 0 2000 1\nf 1 2 3\n", "2,000 m across at scale = 1"),
         ("v 0 0 0\nv 0.002 0 0\nv 0 0.002 1\nf 1 2 3\n", "kilometres? try scale = 1000"),
+        (FLAT, "the scene has no ground truth: every face lies in the ground plane"),
+        (SLAB, "has no ground-truth voxel in the box where map quality is scored"),
     ],
-    ids=["empty", "no faces", "nan", "2 km", "2 mm"],
+    ids=["empty", "no faces", "nan", "2 km", "2 mm", "flat", "slab"],
 )
 def test_a_bad_mesh_gives_one_line_and_writes_nothing(tmp_path, content, message):
     (tmp_path / "bad.obj").write_text(content)
@@ -118,3 +129,29 @@ def test_a_bad_cloud_gives_one_line_and_writes_nothing(tmp_path, content, messag
     lines = [line for line in result.stderr.splitlines() if line.startswith("Error: ")]
     assert result.returncode == 2 and len(lines) == 1 and message in lines[0], result.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.xyz"]
+
+
+def test_an_import_whose_out_another_import_wrote_meanwhile_is_refused_keeping_it(
+    tmp_path, monkeypatch
+):
+    """Two imports into one --out: the one that finishes second writes nothing and says so in
+    one line; the spec there stays the first one's, whole."""
+    import nbv_gym.worlds.world as worlds
+    from tests.helpers import invoke
+
+    write_scene(tmp_path / "s.obj")
+    monkeypatch.chdir(tmp_path)
+    build = worlds.load_world
+
+    def meanwhile(spec, *args, **kwargs):  # the other import finishes while this one builds
+        world = build(spec, *args, **kwargs)
+        (tmp_path / "w.toml").write_text("# the other import's spec\n")
+        return world
+
+    monkeypatch.setattr(worlds, "load_world", meanwhile)
+    result = invoke("worlds", "import", "s.obj", "--out", "w.toml")
+    assert result.code == 2 and "Traceback" not in result.err, result.err
+    assert "w.toml exists: another process wrote it while this one ran" in result.err
+    assert "this command wrote nothing (give another --out, or --force" in result.err
+    assert (tmp_path / "w.toml").read_text() == "# the other import's spec\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.obj", "w.toml"]

@@ -3,8 +3,6 @@ ground truth of an independent, exact voxelisation; units, axes, start, window a
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 import trimesh
@@ -13,43 +11,21 @@ from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.worlds import load_spec, load_world, shapes, surface_voxels
 from nbv_gym.worlds.world import cache_path
+from tests.helpers import box_mesh, box_surface_voxels
 
-#: Axis-aligned boxes in units of 5 cm (odd numbers: faces midway between voxel boundaries),
-#: (x0, x1, y0, y1, z1); every box stands on z = 0.
-BOXES = [(61, 101, -39, 1, 41), (-143, -101, 43, 81, 59), (-41, 39, -181, -141, 21)]
+#: Axis-aligned boxes in units of 5 cm, (x0, x1, y0, y1, z1), standing on z = 0: odd numbers
+#: put faces midway between voxel boundaries, even ones on them (the last two boxes: on the
+#: whole and the half metre).
+BOXES = [(61, 101, -39, 1, 41), (-143, -101, 43, 81, 59), (-41, 39, -181, -141, 21),
+         (120, 160, 100, 140, 40), (-170, -150, -110, -90, 50)]  # fmt: skip
 #: Centre (x, y), radius, height, sides; no vertex on a voxel boundary.
 CYLINDER = ((3.02, 7.03), 0.76, 2.45, 24)
-
-
-def box_mesh(box):
-    x0, x1, y0, y1, z1 = np.asarray(box) * 0.05
-    corners = np.array(list(itertools.product((x0, x1), (y0, y1), (0.0, z1))))
-    return corners, trimesh.convex.convex_hull(corners).faces
 
 
 def cylinder_mesh():
     (cx, cy), radius, height, sides = CYLINDER
     vertices, faces = shapes.prism(shapes.regular_polygon(sides, radius), height)
     return vertices + [cx, cy, 0.0], faces
-
-
-def analytic_box_voxels(box) -> set[tuple[int, int, int]]:
-    """Voxels whose interior meets the box's surface, in integers: voxel i spans [2i, 2i + 2]
-    in 5 cm units; it meets the closed box but does not lie in the open box's interior."""
-    x0, x1, y0, y1, z1 = box
-    bounds = ((x0, x1), (y0, y1), (0, z1))
-    ranges = [range(lo // 2 - 1, hi // 2 + 2) for lo, hi in bounds]
-    out = set()
-    for voxel in itertools.product(*ranges):
-        meets = all(
-            2 * i < hi and 2 * i + 2 > lo for i, (lo, hi) in zip(voxel, bounds, strict=True)
-        )
-        inside = all(
-            lo <= 2 * i and 2 * i + 2 <= hi for i, (lo, hi) in zip(voxel, bounds, strict=True)
-        )
-        if meets and not inside:
-            out.add(voxel)
-    return out
 
 
 def scene(up: str = "z", scale: float = 1.0):
@@ -74,7 +50,7 @@ def test_a_mesh_file_of_primitives_gives_the_analytic_ground_truth(tmp_path, suf
     scene().export(tmp_path / f"primitives{suffix}")
     world = load_world(write_spec(tmp_path, f"primitives{suffix}"), cache=False)
     voxels = {tuple(v) for v in world.ground_truth.voxels.tolist()}
-    boxes = set().union(*map(analytic_box_voxels, BOXES))
+    boxes = set().union(*map(box_surface_voxels, BOXES))
     cylinder = surface_voxels(*cylinder_mesh(), RESOLUTION_M).voxels
     assert voxels == boxes | {tuple(v) for v in cylinder.tolist()}
     assert world.frame.offset_m == (0.0, 0.0, 0.0)
@@ -173,3 +149,59 @@ def test_the_environment_explores_a_scene_world_with_its_goal_grid_fitted(tmp_pa
     assert grid.low[0] <= -45.05 and grid.high[0] >= 45.05 and grid.shape[0] > 60
     *_, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
     assert info["world"] == "primitives" and info["discovered"] > 0 and info["q"] > 0
+
+
+def write_ply(path, vertices, faces, kind: str = "double", extra: str = "") -> None:
+    """An ASCII PLY mesh with ``kind`` (float or double) coordinates and, after the vertices,
+    ``extra`` vertex lines that no face uses."""
+    rows = [" ".join(map(repr, v)) for v in np.asarray(vertices).tolist()]
+    unused = [line for line in extra.splitlines() if line.strip()]
+    head = ["ply", "format ascii 1.0", f"element vertex {len(rows) + len(unused)}"]
+    head += [f"property {kind} {axis}" for axis in "xyz"]
+    head += [f"element face {len(faces)}", "property list uchar int vertex_indices", "end_header"]
+    body = rows + unused + [f"3 {a} {b} {c}" for a, b, c in np.asarray(faces).tolist()]
+    path.write_text("\n".join(head + body) + "\n")
+
+
+@pytest.mark.parametrize(
+    ("shift", "kind"),
+    [
+        ((0.0, 0.0, 0.03), "double"),
+        ((500_000.0, 5_000_000.0, 200.03), "double"),
+        ((0.0, 0.0, 0.03), "float"),
+    ],
+    ids=["lifted", "utm", "float32"],
+)
+def test_a_scene_moved_by_whole_voxels_or_in_float32_has_the_same_ground_truth(
+    tmp_path, shift, kind
+):
+    """Boxes with faces on the voxel lattice and between its planes: lifted, moved to UTM-like
+    coordinates or written in float32, their world is the same — faces on the lattice occupy
+    the voxels on their upper side whatever the last bits of the coordinates."""
+    vertices, faces = shapes.concatenate([box_mesh(box) for box in BOXES])
+    write_ply(tmp_path / "s.ply", vertices + shift, faces, kind)
+    start = [shift[0], shift[1]]
+    world = load_world(write_spec(tmp_path, "s.ply", start_m=start), cache=False)
+    voxels = {tuple(v) for v in world.ground_truth.voxels.tolist()}
+    assert voxels == set().union(*map(box_surface_voxels, BOXES))
+
+
+@pytest.mark.parametrize("unused", ["1000000.0 1000000.0 0.0", "nan nan 0.0"])
+def test_a_vertex_no_face_uses_is_no_part_of_the_scene(tmp_path, unused):
+    vertices, faces = shapes.concatenate([box_mesh(box) for box in BOXES])
+    write_ply(tmp_path / "s.ply", vertices, faces, extra=unused)
+    write_ply(tmp_path / "plain.ply", vertices, faces)
+    world = load_world(write_spec(tmp_path, "s.ply"), cache=False)
+    plain = load_world(write_spec(tmp_path, "plain.ply"), cache=False)
+    assert np.array_equal(world.vertices, plain.vertices) and world.frame == plain.frame
+    assert np.array_equal(world.ground_truth.voxels, plain.ground_truth.voxels)
+
+
+def test_a_scene_without_ground_truth_is_refused_in_one_line(tmp_path):
+    """Triangles in one plane (the ground, once lifted) or of no area make no ground truth."""
+    from nbv_gym.worlds.scenes.files import SceneFileError
+
+    flat = np.array([[0.0, 0.0, 1.0], [10.0, 0.0, 1.0], [10.0, 10.0, 1.0], [0.0, 10.0, 1.0]])
+    write_ply(tmp_path / "flat.ply", flat, [[0, 1, 2], [0, 2, 3]])
+    with pytest.raises(SceneFileError, match=r"flat\.ply: the scene has no ground truth: every"):
+        load_world(write_spec(tmp_path, "flat.ply", start_m=[5.0, 5.0]), cache=False)

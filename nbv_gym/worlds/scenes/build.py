@@ -3,7 +3,9 @@ ground z = 0; the ground truth voxelised as for the procedural worlds; the windo
 
 World frame = file frame (after ``scale`` and ``up``) − ``offset_m``, where ``offset_m`` is
 (start x, start y, lowest z); the start lies on the ground-truth lattice so that the ground truth
-is the file's voxels shifted by whole voxels.
+is the file's voxels shifted by whole voxels. A mesh's coordinates within :data:`LATTICE_SNAP_M`
+of a voxel boundary (the lifted frame's) count as on it, so that the file's float precision does
+not decide the voxels of its faces on the lattice (:mod:`nbv_gym.worlds.groundtruth`).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from nbv_gym.core.arrays import FloatArray, IntArray
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.worlds import shapes
 from nbv_gym.worlds.groundtruth import GroundTruth, surface_voxels
-from nbv_gym.worlds.scenes.files import check_size, read_mesh, to_metres_z_up
+from nbv_gym.worlds.scenes.files import SceneFileError, check_size, read_mesh, to_metres_z_up
 from nbv_gym.worlds.scenes.spec import SceneSpec
 
 #: The added ground plane reaches this far beyond the scene's footprint, metres (the procedural
@@ -31,6 +33,9 @@ MIN_WINDOW_M = 60.0
 START_BAND_M = (0.3, 3.0)
 #: Cell of the start search, metres.
 START_CELL_M = 0.5
+#: A mesh coordinate this close to a voxel boundary lies on it, metres: far below any scan's
+#: accuracy, and above the rounding of float32 coordinates up to 8 km from the file's origin.
+LATTICE_SNAP_M = 1e-3
 
 
 @dataclass(frozen=True)
@@ -95,10 +100,9 @@ def scene_surface(spec: SceneSpec, resolution_m: float) -> Surface:
 
         return Surface(*cloud_surface(spec.path, scene.scale, scene.up, resolution_m))
     vertices, faces = read_mesh(spec.path)
-    used = np.unique(faces)
     vertices = to_metres_z_up(vertices, scene.scale, scene.up)
-    check_size(spec.path, vertices[used], scene.scale)
-    return Surface(vertices, faces, float(vertices[used, 2].min()))
+    check_size(spec.path, vertices, scene.scale)
+    return Surface(vertices, faces, float(vertices[:, 2].min()))
 
 
 def place(
@@ -107,9 +111,15 @@ def place(
     """The vertices in the world frame, the ground truth and the frame of a scene surface."""
     lifted = surface.vertices - [0.0, 0.0, surface.z0]
     if surface.voxels is None:
-        truth = surface_voxels(lifted, surface.faces, resolution_m)
+        truth = surface_voxels(lifted, surface.faces, resolution_m, LATTICE_SNAP_M)
     else:
         truth = GroundTruth(surface.voxels.astype(np.int32), resolution_m)
+    if len(truth.voxels) == 0:
+        raise SceneFileError(
+            spec.path, "the scene has no ground truth: every face lies in the ground plane at "
+            "its lowest point or has no area, so there is nothing to map (a world needs "
+            "surfaces above the ground)"
+        )  # fmt: skip
     low, high = lifted[:, :2].min(axis=0), lifted[:, :2].max(axis=0)
     start = _start(spec, truth, low, high)
     shift = np.rint(np.asarray(start) / resolution_m).astype(np.int64)

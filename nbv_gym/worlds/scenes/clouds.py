@@ -98,6 +98,19 @@ def cloud_voxels(points: FloatArray, resolution_m: float) -> IntArray:
     return np.unique(np.floor(points / resolution_m).astype(np.int64), axis=0)
 
 
+def world_voxels(points: FloatArray, frame: dict, resolution_m: float) -> IntArray:
+    """(k, 3) int64 lattice indices, world frame, of the voxels holding a point of ``points``
+    (n, 3), given in a scene file's units and axes: the file's scale and up axis, the lift of
+    its lowest point to z = 0 and the shift to its start, by whole voxels, of ``frame`` (a
+    scene world's :meth:`~nbv_gym.worlds.world.World.file_frame`) — the ground truth a cloud
+    world makes of them."""
+    metres = to_metres_z_up(points, frame["scale"], frame["up"])
+    offset = np.asarray(frame["offset_m"], np.float64)
+    metres[:, 2] -= offset[2]
+    shift = np.rint(offset[:2] / resolution_m).astype(np.int64)
+    return cloud_voxels(metres, resolution_m) - np.append(shift, 0)
+
+
 def cloud_surface(path: Path, scale: float, up: str, resolution_m: float):
     """The scene of a cloud: (V, 3) float64 vertices (metres, z up, file frame), (F, 3) int64
     triangles (the exposed voxel faces), the lowest point's z and the occupied voxels (k, 3)

@@ -35,7 +35,8 @@ class SceneFileError(DataFileError):
 
 def read_mesh(path: Path) -> tuple[FloatArray, IntArray]:
     """(V, 3) float64 vertices (file units, the file's axes) and (F, 3) int64 triangles of the
-    mesh in ``path`` (a multi-mesh GLB/GLTF scene flattened with its node transforms)."""
+    mesh in ``path`` (a multi-mesh GLB/GLTF scene flattened with its node transforms); only the
+    vertices a triangle uses, in the file's order (an unused vertex is no part of the scene)."""
     import trimesh
 
     try:
@@ -51,8 +52,10 @@ def read_mesh(path: Path) -> tuple[FloatArray, IntArray]:
         raise SceneFileError(
             path, f"{len(faces):,} triangles, more than {MAX_TRIANGLES:,}; decimate it first"
         )
-    check_finite(path, vertices[np.unique(faces)], "vertices")
-    return vertices, faces
+    used, faces = np.unique(faces, return_inverse=True)
+    vertices = vertices[used]
+    check_finite(path, vertices, "vertices")
+    return vertices, faces.reshape(-1, 3)
 
 
 def check_finite(path: Path, points: FloatArray, what: str) -> None:

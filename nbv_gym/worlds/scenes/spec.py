@@ -28,6 +28,11 @@ from nbv_gym.core.config import check, from_dict, to_dict
 from nbv_gym.core.errors import ConfigError, missing_file
 from nbv_gym.core.names import check_name
 
+#: How a file becomes a world; bumped when the same file and keys make another world, so that
+#: its maps, cache and scorecards are told from the earlier one's (2: faces on the voxel lattice
+#: occupy the voxels on their upper side, unused vertices are left out).
+SCENE_RULES = 2
+
 #: Mesh formats (trimesh's loaders); a ``.ply`` without faces is a point cloud.
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 #: Point-cloud formats (:mod:`nbv_gym.core.pointclouds`; LAS/LAZ through laspy).
@@ -87,12 +92,12 @@ class SceneSpec:
         return Path(self.scene.file)
 
     def digest(self) -> str:
-        """A short hash of the world's content: the file's SHA-256 and the ``[scene]`` keys (the
-        name, the description and the file's path excluded)."""
+        """A short hash of the world's content: the file's SHA-256, the ``[scene]`` keys (the
+        name, the description and the file's path excluded) and :data:`SCENE_RULES`."""
         content = to_dict(self)["scene"]
         content.pop("file")
         text = repr(sorted(content.items()))
-        return hashlib.sha256(("scene/" + text).encode()).hexdigest()[:16]
+        return hashlib.sha256((f"scene/{text}/rules {SCENE_RULES}").encode()).hexdigest()[:16]
 
 
 def parse_scene_spec(data: dict[str, Any], source: str, base: Path | None) -> SceneSpec:

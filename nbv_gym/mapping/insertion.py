@@ -223,7 +223,8 @@ def insert_scan(
 
     Returns:
         Number of voxels that received a hit, number of logged changes inside the coarse grid
-        (more than the log's capacity when they did not all fit).
+        (more than the log's capacity when they did not all fit), number of voxels updated (a
+        hit or a miss each).
     """
     hits, n_hits = _mark_hits(origin, points, max_range, words, tables)
     box = _mark_passes(origin, points, max_range, words, tables)
@@ -231,9 +232,9 @@ def insert_scan(
         bit = hits[h, 3]
         words[bit >> 6] &= ~(np.uint64(1) << np.uint64(bit & 63))
     bricks = _marked_bricks(words, layout, box)
-    n_changes = _apply(store, offsets, deltas, bounds, words, bricks, hits, n_hits,
-                       touched, cells, log, dirty, written, columns)  # fmt: skip
-    return n_hits, n_changes
+    n_changes, n_misses = _apply(store, offsets, deltas, bounds, words, bricks, hits, n_hits,
+                                 touched, cells, log, dirty, written, columns)  # fmt: skip
+    return n_hits, n_changes, n_hits + n_misses
 
 
 @njit(cache=True)
@@ -366,7 +367,7 @@ def _apply(store, offsets, deltas, bounds, words, bricks, hits, n_hits,  # noqa:
            touched, cells, log, dirty, written, columns):  # fmt: skip
     """Apply the ``n_hits`` hits of ``hits`` (:func:`_mark_hits`), then one miss per bit of
     ``words`` in the ``bricks`` (:func:`_marked_bricks`), brick by brick in store order, zeroing
-    the bitset; returns the number of logged changes (:func:`insert_scan`).
+    the bitset; returns the number of logged changes (:func:`insert_scan`) and of misses.
 
     The voxel update is written once, in this loop: numba adds reference counting to every
     inlined helper that takes an array, which made the ray loop three times slower when it
@@ -379,7 +380,7 @@ def _apply(store, offsets, deltas, bounds, words, bricks, hits, n_hits,  # noqa:
     log_cell, log_old, log_new, first_misses = log
     counting_first = first_misses.shape[0] > 0
     n_bricks = bricks.shape[0]
-    n_changes, h, k, word, current = 0, 0, -1, _WORDS - 1, np.uint64(0)
+    n_changes, n_misses, h, k, word, current = 0, 0, 0, -1, _WORDS - 1, np.uint64(0)
     at = ahead = base = ahead_base = vx = vy = vz = block = 0
     readable = wrote = False  # the block's voxels may be read; a voxel of it was written
     cz, z_cell, known_band, occupied_band = -1, OUTSIDE, False, False
@@ -429,6 +430,7 @@ def _apply(store, offsets, deltas, bounds, words, bricks, hits, n_hits,  # noqa:
             cx = vx + ((o >> 6) & 3) * 4 + ((o >> 2) & 3)
             cy = vy + ((o >> 4) & 3) * 4 + (o & 3)
             hit = False
+            n_misses += 1
         if z != cz:  # what depends on the layer alone
             cz, z_cell = z, cells[2, z]
             known_band = known_first <= cz < known_end
@@ -467,4 +469,4 @@ def _apply(store, offsets, deltas, bounds, words, bricks, hits, n_hits,  # noqa:
                         log_old[n_changes] = old if known else np.float32(np.nan)
                         log_new[n_changes] = new
                     n_changes += 1
-    return n_changes
+    return n_changes, n_misses

@@ -82,6 +82,8 @@ class ScanUpdate:
         n_points: returns given.
         n_dropped: returns dropped for a NaN or infinite coordinate.
         n_occupied: voxels that received a hit.
+        n_updated: voxels updated, a hit or a miss each (those whose value stayed at a clamp
+            included): the insertion's work.
         touched: bool mask over the ``region`` grid passed to ``insert`` (G in the exploration
             state): cells holding a voxel whose value changed (empty (0, 0, 0) without a region).
         touched_cells: (k,) int64 flat (C-order) indices of those cells.
@@ -93,6 +95,7 @@ class ScanUpdate:
     n_points: int
     n_dropped: int
     n_occupied: int
+    n_updated: int
     touched: BoolArray
     touched_cells: np.ndarray
     columns: BoolArray = field(default_factory=lambda: np.zeros((0, 0), bool))
@@ -209,7 +212,7 @@ class OccupancyMap(CellReaders):
         if tally is not None and tally.sums.shape != touched.shape:
             raise NbvGymError(f"a tally of {tally.sums.shape} cells needs a region of that shape")
         log = NO_LOG if tally is None else tally.log
-        n_occupied, n_changes = self._update(
+        n_occupied, n_changes, n_updated = self._update(
             origin_grid, points_grid, touched, cells, log, columns or NO_COLUMNS
         )
         if not self._scans:
@@ -222,9 +225,8 @@ class OccupancyMap(CellReaders):
             cells = np.argwhere(touched)
             # a tally has the shape of the touched mask (checked above), so it comes with a region
             tally.recount(cells, self.probability_blocks(cast(GridSpec, region), cells))
-        return ScanUpdate(
-            len(points), len(points) - len(points_grid), int(n_occupied), touched, changed
-        )
+        n_dropped = len(points) - len(points_grid)
+        return ScanUpdate(len(points), n_dropped, int(n_occupied), int(n_updated), touched, changed)
 
     def clear(self) -> None:
         """Forget every voxel (all unknown again), reusing the storage: only the blocks written
@@ -275,10 +277,10 @@ class OccupancyMap(CellReaders):
         cells: np.ndarray,
         log: tuple,
         columns: ColumnCounts,
-    ) -> tuple[int, int]:
+    ) -> tuple[int, int, int]:
         """Apply a scan (sensor and finite returns in grid units) to the store and the
         bookkeeping (:func:`~nbv_gym.mapping.insertion.insert_scan`); returns the number of
-        voxels hit and of changes logged."""
+        voxels hit, of changes logged and of voxels updated."""
         layout = self._window.place(origin_grid)
         return self._window.run(
             insert_scan, self._store, self._offsets, origin_grid, points_grid,

@@ -33,12 +33,13 @@ class ReferenceMap(OccupancyMap):
         window = np.stack([low, np.minimum(self._window.shape, shape - low), self._window.shape])
         fill_window_tables(self._mark_tables, self._mark_patterns, window)
         self._marks[:] = 0
-        return insert_scan(
+        n_hits, n_changes = insert_scan(
             self._store, self._offsets, origin_grid, points_grid,
             self.params["max_range_m"] / self.grid.res, self._deltas, self._bounds, self._marks,
             self._mark_tables, touched.reshape(-1), cells, log, self._dirty, self._journal,
             columns.kernel_args(),
         )  # fmt: skip
+        return n_hits, n_changes, int(np.unpackbits(self._marks).sum())  # each mark: one update
 
 
 def window_patterns(shape: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -89,7 +89,8 @@ def assert_same(ours: ExplorationState, reference: ExplorationState, episodes) -
 def assert_same_scan(ours: ExplorationState, reference: ExplorationState, scan: Scan, where: str):
     """Apply ``scan`` to both states: every output equal bit for bit (``where`` names it)."""
     a, b = ours.apply(scan), reference.apply(scan)
-    assert (a.n_points, a.n_dropped, a.n_occupied) == (b.n_points, b.n_dropped, b.n_occupied)
+    for name in ("n_points", "n_dropped", "n_occupied", "n_updated"):
+        assert getattr(a, name) == getattr(b, name), f"{where}: {name}"
     for name in ("touched", "touched_cells", "columns"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=where)
     x, y = ours.occupancy, reference.occupancy

@@ -8,8 +8,9 @@ in OctoMap with ``insertPointCloud(cloud, origin, max_range)``.
 
 Storage is one float32 per voxel (640 × 640 × 90 voxels: 147.5 MB), zero bits for unknown so that
 only pages some scan wrote are resident (:mod:`nbv_gym.mapping.store`), in bricks of 16 × 16 × 4
-voxels, one page each, for locality (:mod:`nbv_gym.mapping.traversal`), plus a per-scan marking
-bitset over the cube of the sensor range (2.0 MB for 20 m at 0.1 m).
+voxels, one page each (:mod:`nbv_gym.mapping.traversal`), plus a per-scan marking bitset over the
+bricks of the sensor's reach (2.1 MB for 20 m at 0.1 m), through which a scan's updates are
+applied in store order (:mod:`nbv_gym.mapping.insertion`).
 """
 
 from __future__ import annotations
@@ -20,25 +21,18 @@ from typing import cast
 
 import numpy as np
 
-from nbv_gym.core.arrays import BoolArray, FloatArray, finite_rows
+from nbv_gym.core.arrays import BoolArray, FloatArray
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import ConfigError, NbvGymError, PoseError
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.protocol import RESOLUTION_M
 from nbv_gym.mapping.blocks import CellReaders, is_whole
 from nbv_gym.mapping.columns import NO_COLUMNS, ColumnCounts
+from nbv_gym.mapping.insertion import MarkingWindow, grid_points, insert_scan
 from nbv_gym.mapping.probability import new_cache, probabilities
 from nbv_gym.mapping.store import ZeroPages, decoded, encoded
 from nbv_gym.mapping.tally import NO_LOG, CellTally
-from nbv_gym.mapping.traversal import (
-    BRICK,
-    OUTSIDE,
-    TILE,
-    axis_offsets,
-    fill_window_tables,
-    insert_scan,
-    window_patterns,
-)
+from nbv_gym.mapping.traversal import BRICK, OUTSIDE, TILE, axis_offsets
 
 
 def logit(p: float) -> float:
@@ -88,6 +82,8 @@ class ScanUpdate:
         n_points: returns given.
         n_dropped: returns dropped for a NaN or infinite coordinate.
         n_occupied: voxels that received a hit.
+        n_updated: voxels updated, a hit or a miss each (those whose value stayed at a clamp
+            included): the insertion's work.
         touched: bool mask over the ``region`` grid passed to ``insert`` (G in the exploration
             state): cells holding a voxel whose value changed (empty (0, 0, 0) without a region).
         touched_cells: (k,) int64 flat (C-order) indices of those cells.
@@ -99,6 +95,7 @@ class ScanUpdate:
     n_points: int
     n_dropped: int
     n_occupied: int
+    n_updated: int
     touched: BoolArray
     touched_cells: np.ndarray
     columns: BoolArray = field(default_factory=lambda: np.zeros((0, 0), bool))
@@ -153,10 +150,7 @@ class OccupancyMap(CellReaders):
         self._offsets = axis_offsets(self._bricks)
         self._pages = ZeroPages(math.prod(self._bricks) * math.prod(BRICK))
         self._store = self._pages.array
-        self._window_shape = self._marking_window(grid, max_range_m)
-        self._marks = np.zeros(int(np.prod(self._window_shape)) // 8, dtype=np.uint8)
-        self._mark_patterns = window_patterns(self._window_shape)
-        self._mark_tables = tuple(np.empty(n + 2, np.int64) for n in grid.shape)
+        self._window = MarkingWindow(grid.shape, max_range_m / grid.res)
         self._region_cells: dict[tuple, np.ndarray] = {}  # _touch_grid's tables per region
         self._dirty = np.zeros(self._pages.n_blocks, bool)  # store blocks written since clear()
         self._first_scan = np.zeros(self._pages.n_blocks, bool)  # blocks the first scan wrote
@@ -178,23 +172,12 @@ class OccupancyMap(CellReaders):
         )
 
     @staticmethod
-    def _marking_window(grid: GridSpec, max_range_m: float) -> np.ndarray:
-        """(3,) int64 shape of the per-scan marking window, in whole 8-voxel bricks: every voxel
-        within range of the sensor, and at most the map."""
-        half = math.ceil(max_range_m / grid.res) + 1
-        size = np.minimum([2 * half + 1, 2 * half + 1, grid.shape[2]], grid.shape)
-        return (-(-size // 8) * 8).astype(np.int64)
-
-    @staticmethod
     def brick_counts(grid: GridSpec, max_range_m: float) -> tuple[tuple[int, ...], ...]:
         """The bricks (pages) of a map over ``grid`` along x, y, z, and the most bricks along
         each axis that the marking window of a sensor of range ``max_range_m`` (the voxels one
         scan can write) overlaps: one more than it spans, as it need not start on a brick."""
         box = tuple(-(-n // b) for n, b in zip(grid.shape, BRICK, strict=True))
-        shape = OccupancyMap._marking_window(grid, max_range_m)
-        window = tuple(min(-(-int(n) // b) + 1, m) for n, b, m in zip(
-            shape, BRICK, box, strict=True))  # fmt: skip
-        return box, window
+        return box, MarkingWindow.brick_shape(grid.shape, max_range_m / grid.res)
 
     # ------------------------------------------------------------------ update
 
@@ -224,30 +207,13 @@ class OccupancyMap(CellReaders):
         """
         origin_grid = self._origin_in_grid(origin)
         points = _as_points(points)
-        finite = finite_rows(points)
-        points_grid = (points[finite] - self.grid.low) / self.grid.res
+        points_grid = grid_points(points, self.grid.low, self.grid.res)
         touched, cells = self._touch_grid(region)
         if tally is not None and tally.sums.shape != touched.shape:
             raise NbvGymError(f"a tally of {tally.sums.shape} cells needs a region of that shape")
-        fill_window_tables(self._mark_tables, self._mark_patterns, self._window(origin_grid))
-        self._marks[:] = 0
         log = NO_LOG if tally is None else tally.log
-        n_occupied, n_changes = insert_scan(
-            self._store,
-            self._offsets,
-            origin_grid,
-            points_grid,
-            self.params["max_range_m"] / self.grid.res,
-            self._deltas,
-            self._bounds,
-            self._marks,
-            self._mark_tables,
-            touched.reshape(-1),
-            cells,
-            log,
-            self._dirty,
-            self._journal,
-            (columns or NO_COLUMNS).kernel_args(),
+        n_occupied, n_changes, n_updated = self._update(
+            origin_grid, points_grid, touched, cells, log, columns or NO_COLUMNS
         )
         if not self._scans:
             self._first_scan[:] = self._dirty
@@ -259,7 +225,8 @@ class OccupancyMap(CellReaders):
             cells = np.argwhere(touched)
             # a tally has the shape of the touched mask (checked above), so it comes with a region
             tally.recount(cells, self.probability_blocks(cast(GridSpec, region), cells))
-        return ScanUpdate(len(points), int((~finite).sum()), int(n_occupied), touched, changed)
+        n_dropped = len(points) - len(points_grid)
+        return ScanUpdate(len(points), n_dropped, int(n_occupied), int(n_updated), touched, changed)
 
     def clear(self) -> None:
         """Forget every voxel (all unknown again), reusing the storage: only the blocks written
@@ -302,13 +269,25 @@ class OccupancyMap(CellReaders):
             )
         return (origin - self.grid.low) / self.grid.res
 
-    def _window(self, origin_grid: np.ndarray) -> np.ndarray:
-        """(3, 3) int64 low voxel, limit inside the map and shape of the marking window centred on
-        the sensor."""
-        shape = np.asarray(self.grid.shape)
-        low = np.floor(origin_grid).astype(np.int64) - self._window_shape // 2
-        low = np.minimum(np.maximum(low, 0), np.maximum(shape - self._window_shape, 0))
-        return np.stack([low, np.minimum(self._window_shape, shape - low), self._window_shape])
+    def _update(
+        self,
+        origin_grid: np.ndarray,
+        points_grid: np.ndarray,
+        touched: np.ndarray,
+        cells: np.ndarray,
+        log: tuple,
+        columns: ColumnCounts,
+    ) -> tuple[int, int, int]:
+        """Apply a scan (sensor and finite returns in grid units) to the store and the
+        bookkeeping (:func:`~nbv_gym.mapping.insertion.insert_scan`); returns the number of
+        voxels hit, of changes logged and of voxels updated."""
+        layout = self._window.place(origin_grid)
+        return self._window.run(
+            insert_scan, self._store, self._offsets, origin_grid, points_grid,
+            self.params["max_range_m"] / self.grid.res, self._deltas, self._bounds,
+            self._window.words, self._window.tables, layout, touched.reshape(-1), cells, log,
+            self._dirty, self._journal, columns.kernel_args(),
+        )  # fmt: skip
 
     def _touch_grid(self, region: GridSpec | None) -> tuple[np.ndarray, np.ndarray]:
         """The empty touched mask over ``region`` and the (3, n) part of the flat region cell
@@ -356,7 +335,7 @@ class OccupancyMap(CellReaders):
 
     def memory_bytes(self) -> int:
         """Bytes the map's arrays span (only the store's written pages are resident)."""
-        return self._store.nbytes + self._marks.nbytes
+        return self._store.nbytes + self._window.words.nbytes
 
     def logodds_in(self, grid: GridSpec) -> np.ndarray:
         """float32 log-odds of ``grid.shape`` (NaN = unknown, also outside the map box).

@@ -130,7 +130,7 @@ class CellTally:
 def new_log(capacity: int, cells: int) -> tuple[np.ndarray, ...]:
     """An empty change log of ``capacity`` entries over a coarse grid of ``cells`` cells for
     the insertion kernel: (cell, old, new, first_misses) — see
-    :func:`~nbv_gym.mapping.traversal.insert_scan`."""
+    :func:`~nbv_gym.mapping.insertion.insert_scan`."""
     cell = np.empty(capacity, np.int32)
     first_misses = np.zeros(cells, np.int32)
     return cell, np.empty(capacity, np.float32), np.empty(capacity, np.float32), first_misses

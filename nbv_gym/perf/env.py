@@ -7,6 +7,17 @@ Keys of :func:`run`:
   the scan, its insertion into the map, the viewpoint statistics update, the navigation
   re-projection and plan, the quality update (probability blocks and cuboid metrics), and the
   observation with ``info``.
+- ``env_raw_cast_ms``: one raw Embree cast of the rays of a step's scan (the embreex call alone,
+  its float32 arrays made beforehand; CPU time of the process): the unit of the ``_raw`` keys, which
+  divide each step's CPU time by that of the raw cast of its own scan (medians over the
+  steps), so that they compare across machines and hold on a shared one.
+- ``env_step_raw``: the step in raw casts; its parts ``env_postprocess_raw`` (the lidar's work
+  besides the cast: noise, filtering, frames), ``env_insert_raw``, ``env_quality_raw``,
+  ``env_statistics_raw``, ``env_navigation_raw``, ``env_observation_raw`` and
+  ``env_python_raw`` (the rest of the step: the environment's and simulator's own code).
+- ``env_reset_raw``: a reset in raw casts of the start pose's scan.
+- ``env_insert_ns_per_update``: the insertion's CPU time per voxel updated (a hit or a
+  miss each; ``ScanUpdate.n_updated``), nanoseconds.
 - ``env_step_os1_64_ms``, ``env_lidar_os1_64_ms``: the same step and its scan with the OS1-64
   preset (``lidar="os1-64"``: 64 beams × 1024 azimuth samples, 8 × the default's rays).
 - ``env_reset_ms``: one reset after the first (median of a few; it takes the first scan).
@@ -32,13 +43,15 @@ from nbv_gym.perf import PERF_WORLD
 STEPS = 20
 RESETS = 5
 
+#: The suffix of a part's key in the dict of :func:`_time_parts` under which its CPU time is.
+CPU = ":cpu"
 #: Step parts: key → the (object path from the env, method name) pairs whose times add up to it.
 PARTS = {
     "env_lidar_ms": (("sim.lidar", "scan"),),
     "env_insert_ms": (("sim.state.occupancy", "insert"),),
     "env_statistics_ms": (("sim.state.statistics", "update"),),
     "env_navigation_ms": (
-        ("sim.state", "_project"),
+        ("sim.state.navigation", "reproject"),
         ("sim.state", "update_navigation"),
         ("sim.state.navigation", "plan"),
     ),
@@ -57,7 +70,13 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     progress(f"{RESETS} resets and {STEPS} env steps on {PERF_WORLD}")
     env.reset(seed=0)  # compiles and builds everything once
     resets = [_seconds(functools.partial(env.reset, seed=seed)) for seed in range(1, RESETS + 1)]
-    figures = {"env_reset_ms": 1e3 * float(np.median(resets)), **_steps(env)}
+    reset_cpu = [_cpu_seconds(functools.partial(env.reset, seed=seed)) for seed in range(RESETS)]
+    raw = float(np.median([raw_cast_s(env.sim) for _ in range(RESETS)]))  # the start pose's
+    figures = {
+        "env_reset_ms": 1e3 * float(np.median(resets)),
+        "env_reset_raw": float(np.median(reset_cpu)) / raw,
+        **_steps(env),
+    }
     progress(f"{STEPS} env steps on {PERF_WORLD} with the OS1-64 preset")
     dense = ExploreEnv(world=PERF_WORLD, noise=1, max_steps=STEPS + 5, lidar="os1-64")
     dense.reset(seed=0)
@@ -75,30 +94,87 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
 
 
 def _steps(env) -> dict[str, float]:
-    """Median step time and the median time of each part (:data:`PARTS`) over the steps."""
+    """Median step time and the median time of each part (:data:`PARTS`) over the steps; the
+    same in raw casts of each step's scan, and the insertion's time per voxel updated."""
     _, info = env.reset(seed=1)
-    spent = _time_parts(env)
-    rng, steps, parts = np.random.default_rng(0), [], []
+    spent, updated = _time_parts(env), _count_updates(env)
+    rng, steps, parts, raws, per_update = np.random.default_rng(0), [], [], [], []
     for _ in range(STEPS):
         goal = int(rng.choice(np.flatnonzero(info["action_mask"])))
         spent.clear()
-        start = time.perf_counter()
+        updated.clear()
+        start, start_cpu = time.perf_counter(), time.process_time()
         _, _, terminated, truncated, info = env.step(goal)
-        steps.append(time.perf_counter() - start)
+        steps.append((time.perf_counter() - start, time.process_time() - start_cpu))
         parts.append(dict(spent))
+        raws.append(raw_cast_s(env.sim))
+        per_update.append(spent.get("env_insert_ms" + CPU, 0.0) / max(sum(updated), 1))
         if terminated or truncated:
             _, info = env.reset(seed=len(steps))
             _time_parts(env, spent)
-    figures = {"env_step_ms": 1e3 * float(np.median(steps))}
+            _count_updates(env, updated)
+    wall, cpu = np.array(steps).T
+    figures = {"env_step_ms": 1e3 * float(np.median(wall))}
     for key in PARTS:
         figures[key] = 1e3 * float(np.median([p.get(key, 0.0) for p in parts]))
+    figures["env_raw_cast_ms"] = 1e3 * float(np.median(raws))
+    figures["env_insert_ns_per_update"] = 1e9 * float(np.median(per_update))
+    for key, share in _raw_shares(list(cpu), parts, raws).items():
+        figures[key] = float(np.median(share))
     return figures
+
+
+def _raw_shares(steps: list[float], parts: list[dict[str, float]], raws: list[float]):
+    """Per step, the step and its parts in raw casts of its scan (CPU times): ``env_step_raw``
+    and the ``env_<part>_raw`` keys, the lidar's part less the cast itself
+    (``env_postprocess_raw``) and the rest of the step (``env_python_raw``)."""
+    spent = {key: np.array([p.get(key + CPU, 0.0) for p in parts]) for key in PARTS}
+    raw, step = np.array(raws), np.array(steps)
+    shares = {"env_step_raw": step / raw, "env_postprocess_raw": spent["env_lidar_ms"] / raw - 1}
+    for key in PARTS:
+        if key != "env_lidar_ms":
+            shares[key.removesuffix("_ms") + "_raw"] = spent[key] / raw
+    shares["env_python_raw"] = (step - sum(spent.values())) / raw
+    return shares
+
+
+def raw_cast_s(sim) -> float:
+    """CPU seconds (the process's) of one raw Embree cast of the rays of the scan from ``sim``'s current
+    robot pose: the embreex call alone (as the lidar makes it), its float32 arrays made
+    beforehand."""
+    lidar = sim.lidar
+    pose = lidar.sensor_pose(sim.pose)
+    directions = np.ascontiguousarray(pose.rotate(lidar.directions), np.float32)
+    origins = np.ascontiguousarray(np.broadcast_to(pose.position, directions.shape), np.float32)
+    start = time.process_time()
+    lidar.scene._scene.run(origins, directions, query="DISTANCE")
+    return time.process_time() - start
+
+
+def _count_updates(env, counts: list[int] | None = None) -> list[int]:
+    """Wrap the map's ``insert`` (again after a reset that replaced it) to append each scan's
+    ``n_updated`` to the list returned."""
+    counts = [] if counts is None else counts
+    occupancy = env.sim.occupancy
+    insert = occupancy.insert
+    if not getattr(insert, "perf_counted", False):
+
+        def counted(*args, **kwargs):
+            update = insert(*args, **kwargs)
+            counts.append(update.n_updated)
+            return update
+
+        counted.__dict__["perf_counted"] = True
+        counted.__dict__["perf_timed"] = getattr(insert, "perf_timed", False)
+        occupancy.insert = counted
+    return counts
 
 
 def _time_parts(env, spent: dict[str, float] | None = None) -> dict[str, float]:
     """Wrap the methods of :data:`PARTS` that exist on their instances (again after a reset that
-    replaced them); returns the dict the wrappers add their seconds to. A part's time is counted
-    once when its methods call each other."""
+    replaced them); returns the dict the wrappers add their seconds to (wall, and the process's
+    CPU under the key + :data:`CPU`). A part's time is counted once when its methods call each
+    other."""
     spent = {} if spent is None else spent
     running: dict[str, int] = {}
     for key, methods in PARTS.items():
@@ -113,8 +189,11 @@ def _time_parts(env, spent: dict[str, float] | None = None) -> dict[str, float]:
 
 
 def _timed(method, key: str, spent: dict[str, float], running: dict[str, int]):
+    """``method`` adding its seconds to ``spent[key]``, and its CPU seconds to
+    ``spent[key + CPU]``."""
+
     def timed(*args, **kwargs):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         running[key] = running.get(key, 0) + 1
         try:
             return method(*args, **kwargs)
@@ -122,8 +201,10 @@ def _timed(method, key: str, spent: dict[str, float], running: dict[str, int]):
             running[key] -= 1
             if not running[key]:
                 spent[key] = spent.get(key, 0.0) + time.perf_counter() - start
+                spent[key + CPU] = spent.get(key + CPU, 0.0) + time.process_time() - start_cpu
 
     timed.__dict__["perf_timed"] = True
+    timed.__dict__["perf_counted"] = getattr(method, "perf_counted", False)
     return timed
 
 
@@ -166,3 +247,9 @@ def _seconds(work: Callable[[], object]) -> float:
     start = time.perf_counter()
     work()
     return time.perf_counter() - start
+
+
+def _cpu_seconds(work: Callable[[], object]) -> float:
+    start = time.process_time()
+    work()
+    return time.process_time() - start

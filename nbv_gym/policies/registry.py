@@ -35,6 +35,7 @@ POLICIES: dict[str, str] = {
     "ig-entropy": "nbv_gym.policies.information_gain:IgEntropy",
     "frontier-tour": "nbv_gym.policies.frontier_tour:FrontierTour",
     "oracle-greedy": "nbv_gym.policies.oracle:OracleGreedy",
+    "oracle-time": "nbv_gym.policies.teacher:OracleTime",
 }
 
 #: The seven policies of the paper, in its order.

@@ -24,13 +24,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.core.extending import intrinsic
+from numba import njit
 
 from nbv_gym.core.arrays import FloatArray
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.mapping.blocks import _cell_voxels
+from nbv_gym.mapping.occupancy import OccupancyMap
 from nbv_gym.mapping.probability import (
     logodds_bound,
     new_cache,
@@ -38,15 +37,9 @@ from nbv_gym.mapping.probability import (
     sigmoid_one,
 )
 from nbv_gym.mapping.state import ExplorationState
-from nbv_gym.mapping.store import stored
+from nbv_gym.mapping.store import BLOCK, stored
 from nbv_gym.mapping.tally import _apply, _apply_first_misses
-from nbv_gym.mapping.traversal import (
-    _advance,
-    _axis_setup,
-    _distance,
-    fill_window_tables,
-    window_patterns,
-)
+from nbv_gym.mapping.traversal import BRICK, OUTSIDE, TILE, _advance, _axis_setup, _distance
 
 #: Changes a trial logs before it folds them into the totals (12 bytes each).
 LOG_CAPACITY = 1 << 16
@@ -84,18 +77,19 @@ class ScanOverlay:
     def __init__(self, state: ExplorationState, thresholds: tuple[float, ...]):
         if state.tally is None:
             raise NbvGymError("a scan overlay needs a state that keeps cell totals")
-        self.state = state
+        self.state, self.tally = state, state.tally
         occupancy = state.occupancy
         self.region = state.statistics.grid
         self.thresholds = np.unique(np.array(thresholds, np.float32))
         #: (s,) float32 log-odds bounds of :attr:`thresholds` (``p > t`` iff ``l >= b``)
         self.bounds = np.array([logodds_bound(t) for t in self.thresholds], np.float32)
-        shape = occupancy._window_shape
-        self._patterns = window_patterns(shape)
+        _, bricks = OccupancyMap.brick_counts(occupancy.grid, occupancy.params["max_range_m"])
+        #: (3,) int64 bricks of the window along x, y, z, and the first brick of the last trial's
+        self._bricks = np.array(bricks, np.int64)
+        self._first = np.zeros(3, np.int64)
+        self._in_brick = tuple(offset & (BLOCK - 1) for offset in occupancy._offsets)
         self._tables = tuple(np.empty(n + 2, np.int64) for n in occupancy.grid.shape)
-        self._bricks = (shape >> 3).astype(np.int64)
-        self._low = np.zeros(3, np.int64)
-        self._visit = np.zeros(int(np.prod(shape)) // 8, np.uint8)
+        self._visit = np.zeros(int(np.prod(bricks)) * BLOCK // 8, np.uint8)
         self._hit = np.zeros_like(self._visit)
         n_cells = int(np.prod(self.region.shape))
         self._slot = np.full(n_cells, -1, np.int64)
@@ -103,7 +97,7 @@ class ScanOverlay:
         self._out = (np.empty(n_cells), np.empty(n_cells, np.int32), np.empty(n_cells, bool))
         self._log = (np.empty(LOG_CAPACITY, np.int64), np.empty(LOG_CAPACITY, np.float32),
                      np.empty(LOG_CAPACITY, np.float32))  # fmt: skip
-        self._first = np.zeros(n_cells, np.int32)
+        self._first_misses = np.zeros(n_cells, np.int32)
         self._cache = new_cache()
 
     def try_scan(self, origin: FloatArray, points: FloatArray) -> TrialTotals:
@@ -111,27 +105,40 @@ class ScanOverlay:
         (map frame, metres; rows with a NaN or infinite coordinate dropped) would change, as
         :meth:`OccupancyMap.insert <nbv_gym.mapping.OccupancyMap.insert>` would leave them;
         the map and totals are not written."""
-        occupancy, tally = self.state.occupancy, self.state.tally
+        occupancy, tally = self.state.occupancy, self.tally
         origin_grid = occupancy._origin_in_grid(origin)
         points = np.asarray(points, np.float64)
         points_grid = (points[np.isfinite(points).all(axis=1)] - occupancy.grid.low) / (
             occupancy.grid.res
         )
-        window = occupancy._window(origin_grid)
-        fill_window_tables(self._tables, self._patterns, window)
-        self._low[:] = window[0]
+        self._fill_tables(occupancy._window(origin_grid))
         _, cells = occupancy._touch_grid(self.region)
         max_range = occupancy.params["max_range_m"] / occupancy.grid.res
         k = _try_scan(
             origin_grid, points_grid, max_range, self._tables, self._visit, self._hit,
-            self._low, self._bricks, occupancy._store, occupancy._dirty, occupancy._offsets,
+            self._first, self._bricks, occupancy._store, occupancy._dirty, occupancy._offsets,
             occupancy._deltas, occupancy._bounds, cells, tally.sums.reshape(-1),
             tally.outside.reshape(-1), tally.band, self.thresholds, self._slot, self._cells,
-            self._out, self._log, self._first, self._cache,
+            self._out, self._log, self._first_misses, self._cache,
         )  # fmt: skip
         sums, outside, crossed = self._out
         return TrialTotals(self._cells[:k].copy(), sums[:k].copy(), outside[:k].copy(),
                            crossed[:k].copy())  # fmt: skip
+
+    def _fill_tables(self, window: np.ndarray) -> None:
+        """Set the bit tables for the map's marking window ``window`` ((3, 3) rows: low voxel,
+        limit, shape; :meth:`OccupancyMap._window`): the window's voxels lie in whole bricks of
+        the store from the bricks holding its low voxel, each brick 1024 bits in the store's
+        order, bricks in (x, y, z) row-major order; voxel (i, j, k) has bit ``x[i + 1] + y[j +
+        1] + z[k + 1]``, a negative sum outside the window (as the insertion's tables)."""
+        low, limit, _ = window
+        self._first[:] = low // np.array(BRICK)
+        strides = (self._bricks[1] * self._bricks[2], self._bricks[2], 1)
+        for axis, table in enumerate(self._tables):
+            table.fill(OUTSIDE)
+            index = np.arange(low[axis], low[axis] + limit[axis])
+            brick = index // BRICK[axis] - self._first[axis]
+            table[index + 1] = (brick * strides[axis] << 10) + self._in_brick[axis][index]
 
     def levels(self, cells: np.ndarray) -> np.ndarray:
         """(k, f, f, f) uint32 levels of the voxels of the (k,) flat cells of G after the scan
@@ -150,17 +157,17 @@ class ScanOverlay:
 
 
 @njit(cache=True, nogil=True)
-def _try_scan(origin, points, max_range, window, visit, hit, low, bricks, store, dirty, offsets,
+def _try_scan(origin, points, max_range, window, visit, hit, first, bricks, store, dirty, offsets,
               deltas, clamp, cells, sums, outside, band, thresholds, slot, touched, out, log,
-              first, cache):  # fmt: skip
+              first_misses, cache):  # fmt: skip
     """Mark the voxels a scan updates (:func:`_mark`), then sweep them (:func:`_sweep`): the
     number k of cells it would change, their flat indices left in ``touched[:k]`` and their
     sums, outside counts and crossing flags in ``out[0][:k]``, ``out[1][:k]``, ``out[2][:k]``."""
     visit[:] = 0
     hit[:] = 0
     _mark(origin, points, max_range, window, visit, hit)
-    return _sweep(visit, hit, low, bricks, store, dirty, offsets, deltas, clamp, cells, sums,
-                  outside, band, thresholds, slot, touched, out, log, first, cache)  # fmt: skip
+    return _sweep(visit, hit, first, bricks, store, dirty, offsets, deltas, clamp, cells, sums,
+                  outside, band, thresholds, slot, touched, out, log, first_misses, cache)  # fmt: skip
 
 
 @njit(cache=True)
@@ -211,78 +218,87 @@ def _mark(origin, points, max_range, window, visit, hit):  # noqa: C901 — a nu
 
 
 @njit(cache=True)
-def _sweep(visit, hit, low, bricks, store, dirty, offsets, deltas, clamp, cells, sums, outside,
-           band, thresholds, slot, touched, out, log, first, cache):  # fmt: skip
-    """Visit every marked voxel once (the bitsets word by word: window brick, x; then y, z
-    within the word), compute its value after the scan from its stored value and its mark as
-    :func:`~nbv_gym.mapping.traversal.insert_scan` does, and fold the changes inside G into
-    per-touched-cell copies of the cells' ``sums`` and ``outside`` (flat over G) with the
+def _sweep(visit, hit, first, bricks, store, dirty, offsets, deltas, clamp, cells, sums, outside,  # noqa: C901 — a numba kernel
+           band, thresholds, slot, touched, out, log, first_misses, cache):  # fmt: skip
+    """Visit every marked voxel once, brick by brick of the window (one page of the store
+    each, read in its order), compute its value after the scan from its stored value and its
+    mark as :func:`~nbv_gym.mapping.traversal.insert_scan` does, and fold the changes inside G
+    into per-touched-cell copies of the cells' ``sums`` and ``outside`` (flat over G) with the
     tally's kernels: logged changes (``log``: slot, old, new log-odds; NaN = unknown) through
     the probability ``cache``, first misses (unknown to the miss log-odds) counted in
-    ``first``. ``slot`` (cells,) maps a cell to its index among the touched (-1: none; left
-    all -1 on return)."""
+    ``first_misses``. ``slot`` (cells,) maps a cell to its index among the touched (-1: none;
+    left all -1 on return)."""
     x_offset, y_offset, z_offset = offsets
     log_slot, log_old, log_new = log
-    by_bz, bz = bricks[1] * bricks[2], bricks[2]
+    out_sums, out_outside, crossed = out
     lo_min, lo_max = clamp[0], clamp[1]
     first_miss = min(max(np.float32(0.0) + deltas[1], lo_min), lo_max)
     n_touched = n_log = 0
-    out_sums, out_outside, crossed = out
     words, hits = visit.view(np.uint64), hit.view(np.uint64)
-    for w in range(words.shape[0]):
-        word = words[w]
-        if word == 0:
+    per_brick = BLOCK // 64
+    for brick in range(bricks[0] * bricks[1] * bricks[2]):
+        w0 = brick * per_brick
+        marked = np.uint64(0)
+        for q in range(per_brick):
+            marked |= words[w0 + q]
+        if marked == 0:
             continue
-        brick, x_in = w >> 3, w & 7
-        a = low[0] + (brick // by_bz) * 8 + x_in
-        b0 = low[1] + ((brick // bz) % bricks[1]) * 8
-        c0 = low[2] + (brick % bz) * 8
-        column_x, word_hits = x_offset[a], hits[w]
-        while word:
-            k = _trailing_zeros(word)
-            word &= word - np.uint64(1)
-            b, c = b0 + (k >> 3), c0 + (k & 7)
-            i = column_x + y_offset[b] + z_offset[c]
-            old = store[i] if dirty[i >> 10] else np.float32(0.0)
-            is_hit = word_hits and (word_hits >> np.uint64(k)) & np.uint64(1)
-            new = min(max(old + deltas[0 if is_hit else 1], lo_min), lo_max)
-            known = old != 0.0
-            if known and new == old:
-                continue
-            cell = cells[0, a] + cells[1, b] + cells[2, c]
-            if cell < 0:  # outside G
-                continue
-            s = slot[cell]
-            if s < 0:
-                s = slot[cell] = n_touched
-                touched[s] = cell
-                out_sums[s], out_outside[s], crossed[s] = sums[cell], outside[cell], False
-                n_touched += 1
-            if not (known or is_hit):
-                first[s] += 1
-                continue
-            if n_log == log_slot.shape[0]:
-                _fold(log, n_log, cache, band, thresholds, out_sums, out_outside, crossed)
-                n_log = 0
-            log_slot[n_log], log_old[n_log] = s, old if known else np.float32(np.nan)
-            log_new[n_log] = new
-            n_log += 1
+        i0 = (first[0] + brick // (bricks[1] * bricks[2])) * BRICK[0]
+        j0 = (first[1] + (brick // bricks[2]) % bricks[1]) * BRICK[1]
+        k0 = (first[2] + brick % bricks[2]) * BRICK[2]
+        base = x_offset[i0] + y_offset[j0] + z_offset[k0]
+        written = dirty[base >> 10]
+        for q in range(per_brick):
+            word, word_hits = words[w0 + q], hits[w0 + q]
+            while word:
+                o = q * 64 + _trailing_zeros(word)
+                word &= word - np.uint64(1)
+                old = store[base + o] if written else np.float32(0.0)
+                is_hit = word_hits and (word_hits >> np.uint64(o & 63)) & np.uint64(1)
+                new = min(max(old + deltas[0 if is_hit else 1], lo_min), lo_max)
+                known = old != 0.0
+                if known and new == old:
+                    continue
+                i = i0 + ((o >> 6) & 3) * TILE + ((o >> 2) & 3)
+                j = j0 + ((o >> 4) & 3) * TILE + (o & 3)
+                cell = cells[0, i] + cells[1, j] + cells[2, k0 + (o >> 8)]
+                if cell < 0:  # outside G
+                    continue
+                s = slot[cell]
+                if s < 0:
+                    s = slot[cell] = n_touched
+                    touched[s] = cell
+                    out_sums[s], out_outside[s], crossed[s] = sums[cell], outside[cell], False
+                    n_touched += 1
+                if not (known or is_hit):
+                    first_misses[s] += 1
+                    continue
+                if n_log == log_slot.shape[0]:
+                    _fold(log, n_log, cache, band, thresholds, out_sums, out_outside, crossed)
+                    n_log = 0
+                log_slot[n_log], log_old[n_log] = s, old if known else np.float32(np.nan)
+                log_new[n_log] = new
+                n_log += 1
     _fold(log, n_log, cache, band, thresholds, out_sums, out_outside, crossed)
-    _apply_first_misses(np.arange(n_touched), first, sigmoid_one(first_miss), band, thresholds,
-                        out_sums, out_outside, crossed)  # fmt: skip
+    _apply_first_misses(np.arange(n_touched), first_misses, sigmoid_one(first_miss), band,
+                        thresholds, out_sums, out_outside, crossed)  # fmt: skip
     slot[touched[:n_touched]] = -1
     return n_touched
 
 
-@intrinsic
-def _trailing_zeros(typingctx, word):
-    """The number of trailing zero bits of a nonzero uint64 (one instruction)."""
+#: De Bruijn sequence and table of :func:`_trailing_zeros`.
+_DE_BRUIJN = np.uint64(0x03F79D71B4CB0A89)
+_TRAILING = np.zeros(64, np.int64)
+_TRAILING[(((np.uint64(1) << np.arange(64, dtype=np.uint64)) * _DE_BRUIJN) >> np.uint64(58))] = (
+    np.arange(64)
+)
 
-    def codegen(context, builder, signature, args):
-        count = builder.cttz(args[0], ir.Constant(ir.IntType(1), 1))
-        return builder.trunc(count, ir.IntType(32))
 
-    return types.int32(types.uint64), codegen
+@njit(cache=True, inline="always")
+def _trailing_zeros(word):
+    """The index of the lowest set bit of a nonzero uint64 (a de Bruijn multiplication)."""
+    lowest = word & (~word + np.uint64(1))
+    return _TRAILING[(lowest * _DE_BRUIJN) >> np.uint64(58)]
 
 
 @njit(cache=True)

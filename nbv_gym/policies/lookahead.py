@@ -42,7 +42,7 @@ class FastLookahead:
     def delta_q(self, goals: np.ndarray) -> np.ndarray:
         """(m,) float64 ΔQ of a scan from each of the (m,) goal indices ``goals``."""
         goals = np.asarray(goals, np.int64)
-        state = self.sim.rng.bit_generator.state
+        state = dict(self.sim.rng.bit_generator.state)
         for worker in self._workers:
             worker.begin(state)
         shares = [np.arange(i, len(goals), len(self._workers)) for i in range(len(self._workers))]

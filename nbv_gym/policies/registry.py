@@ -43,6 +43,8 @@ PAPER_POLICIES = ("random-frontier", "closest-frontier", "random-free", "nbv-nob
                   "nbv-nomega", "nbv-sigma")  # fmt: skip
 #: The field's standard references beside them (``oracle-greedy`` is an oracle).
 REFERENCE_POLICIES = ("ig-unknown", "ig-entropy", "frontier-tour", "oracle-greedy")
+#: The teachers: oracles that label states for learning (privileged, ranked apart).
+TEACHER_POLICIES = ("oracle-time",)
 
 
 class PolicyError(NbvGymError):

@@ -123,7 +123,7 @@ def step_rewards(
     :meth:`Simulator.step <nbv_gym.simulator.Simulator.step>` computes them."""
     episode, navigation = sim.config.episode, sim._live.navigation
     path = navigation.goal_path_length()[goals].astype(np.float64)
-    cost = episode.effort.elapsed_s(path, 1)
+    cost = np.asarray(episode.effort.elapsed_s(path, 1), np.float64)
     held = 1.0
     if episode.time_budget_s is not None:
         spent = episode.effort.elapsed_s(sim.path_length_m + path, sim.steps + 1)

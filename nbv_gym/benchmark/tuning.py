@@ -30,6 +30,9 @@ LAMBDA_GRID = (0.1, 0.25, 0.5, 1.0, 2.0)
 #: summed over the cells a view would see) while the cost layer is about 0–2, so α spans the
 #: gains' scale (a first grid of 0.5–8 changed no decision).
 ALPHA_GRID = (2.0, 20.0, 200.0, 2000.0, 20000.0)
+#: β of ``oracle-time``: the exponent of the step's cost in seconds its reward is divided by (0:
+#: the greedy reward, 1: reward per second, Smith's rule).
+BETA_GRID = (0.0, 0.1, 0.25, 0.5, 1.0)
 #: The tunable references: (constructor keyword, the grid of values); the chosen values are the
 #: time task's defaults (``DEFAULT_LAMBDA`` of the ``ig-*`` policies and ``oracle-greedy``,
 #: ``TIME_ALPHA`` of the ``nbv-*`` policies).
@@ -43,6 +46,7 @@ TUNABLE: dict[str, tuple[str, tuple[float, ...]]] = {
     "nbv-nomega": ("alpha", ALPHA_GRID),
     "nbv-sigma": ("alpha", ALPHA_GRID),
     "oracle-greedy": ("lam", LAMBDA_GRID),
+    "oracle-time": ("beta", BETA_GRID),
 }
 
 

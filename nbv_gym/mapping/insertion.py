@@ -117,14 +117,19 @@ class MarkingWindow:
                   for w, b, n in zip(shape, BRICK, grid_shape, strict=True)]  # fmt: skip
         return bricks[0], bricks[1], bricks[2]
 
+    def box(self, origin_grid: np.ndarray) -> np.ndarray:
+        """(3, 3) int64 rows: the low voxel, the extent inside the map and the shape of the
+        window centred on the sensor at ``origin_grid`` (3,) float64 grid units."""
+        shape = self.grid_shape
+        low = np.floor(origin_grid).astype(np.int64) - self.shape // 2
+        low = np.minimum(np.maximum(low, 0), np.maximum(shape - self.shape, 0))
+        return np.stack([low, np.minimum(self.shape, shape - low), self.shape])
+
     def place(self, origin_grid: np.ndarray) -> np.ndarray:
         """Centre the window on the sensor at ``origin_grid`` (3,) float64 grid units: fill
         :attr:`tables`; returns the (8,) int64 layout the kernel reads: the bitset's first brick
         along x, y, z, its bricks along x, y, z, and the map's bricks along x, y."""
-        shape = self.grid_shape
-        low = np.floor(origin_grid).astype(np.int64) - self.shape // 2
-        low = np.minimum(np.maximum(low, 0), np.maximum(shape - self.shape, 0))
-        limit = np.minimum(self.shape, shape - low)
+        low, limit, _ = self.box(origin_grid)
         first = np.minimum(low // np.array(BRICK), self.map_bricks - self.bricks)
         for table, pattern, start, count, offset in zip(
             self.tables, self._patterns, low, limit, low - first * np.array(BRICK), strict=True

@@ -249,18 +249,24 @@ def _means(
     ``covs`` of those holding ground truth, (b,) ``l1s`` of the others — and ``unseen_occ`` +
     ``unseen_empty`` unobserved ones; NaN where a set is empty."""
     nan = float("nan")
-    n = len(terms) + unseen_occ + unseen_empty
-    # an unobserved cuboid's coverage is 0, so is the term of one holding ground truth
-    q = _with_unseen(terms.sum(), unseen_empty, empty_quality(config.unobserved_l1, config))
     n_occ, n_empty = covs.shape[1] + unseen_occ, len(l1s) + unseen_empty
     cov_sums = covs.sum(axis=1)  # row by row
     l1_sum = _with_unseen(l1s.sum(), unseen_empty, config.unobserved_l1)
     return (
-        float(q / n) if n else nan,
+        mean_quality(terms, unseen_occ, unseen_empty, config),
         _paper(covs[config.q_setting], l1s, unseen_occ, unseen_empty, config),
         tuple((cov_sums / n_occ).tolist()) if n_occ else (nan,) * len(covs),
         float(l1_sum / n_empty) if n_empty else nan,
     )
+
+
+def mean_quality(terms: FloatArray, unseen_occ: int, unseen_empty: int, config) -> float:
+    """Q over the observed cuboids' (k,) float64 ``terms`` and ``unseen_occ`` + ``unseen_empty``
+    unobserved ones (NaN when there are none)."""
+    n = len(terms) + unseen_occ + unseen_empty
+    # an unobserved cuboid's coverage is 0, so is the term of one holding ground truth
+    q = _with_unseen(terms.sum(), unseen_empty, empty_quality(config.unobserved_l1, config))
+    return float(q / n) if n else float("nan")
 
 
 def _with_unseen(total, unseen: int, value):

@@ -4,11 +4,13 @@ only where a scan changed it (definitions in :mod:`nbv_gym.metrics.cuboids`)."""
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit, prange
 
 from nbv_gym.core.arrays import BoolArray, FloatArray, IntArray
+from nbv_gym.mapping.overlay import TrialTotals
 from nbv_gym.mapping.probability import logodds_bound
 from nbv_gym.metrics import MetricInputError
 from nbv_gym.metrics.cuboids import (
@@ -21,6 +23,7 @@ from nbv_gym.metrics.cuboids import (
     cuboid_shape,
     cuboid_view,
     empty_quality,
+    mean_quality,
     summarise,
 )
 
@@ -259,6 +262,68 @@ class QualityTracker:
         return np.unique(touched)
 
 
+class TrialQuality:
+    """Q of ``tracker``'s state with the totals of some cuboids changed by a trial scan, without
+    changing the tracker: the ``q`` that :meth:`QualityTracker.update_totals` would summarise
+    after the scan, bit for bit, computing only the coverage of Q's setting (the others do not
+    enter Q). For a look-ahead over many trial scans of one state: :meth:`begin` once per state,
+    then :meth:`q` per trial; one instance per thread (its search releases the GIL).
+    """
+
+    def __init__(self, tracker: QualityTracker):
+        self.tracker = tracker
+        setting = tracker.config.q_setting
+        #: the probability threshold of Q's coverage setting: a trial's totals must flag the
+        #: cuboids where a voxel crosses it (:meth:`q`)
+        self.threshold = tracker.config.cov_settings[setting][0]
+        self._setting = setting
+        self._within = (tracker._within >> setting) & 1
+        self._volume = tracker.volume.reshape(-1)
+        self._n_occ = int(np.count_nonzero(self._volume & tracker._occupied))
+        self._n_empty = int(np.count_nonzero(self._volume)) - self._n_occ
+        self._terms = np.empty(0)
+        self._seen = np.empty(0, bool)
+
+    def begin(self) -> None:
+        """Read the tracker's state now (before the trials on a state)."""
+        self._terms = self.tracker._terms.copy()
+        self._seen = self.tracker._observed & self._volume
+
+    def q(self, totals: TrialTotals, levels: Callable[[IntArray], np.ndarray]) -> float:
+        """Q after a trial scan whose ``totals`` (:class:`~nbv_gym.mapping.overlay.TrialTotals`:
+        the cuboids it changes, their Σ p and outside counts after it, and the flags of those
+        where a voxel crosses :attr:`threshold`) and whose ``levels(cells)`` ((k, n, n, n)
+        uint32, bit 0: p > :attr:`threshold`, of the (k,) flat ``cells`` after the scan) are
+        given."""
+        t = self.tracker
+        cells = totals.cells
+        search = totals.crossed & t._occupied[cells]
+        found = t._found[self._setting, cells]
+        searched = np.empty(int(search.sum()))
+        _trial_coverages(levels(cells[search]), cells[search], t.config.cuboid_voxels, t.shape,
+                         t._gt_start, t._gt_voxels, t._offsets, self._within, searched)  # fmt: skip
+        found[search] = searched
+        return self._q_with(cells, totals.outside > 0, totals.sums, found)
+
+    def _q_with(self, cells: IntArray, observed: BoolArray, sums: FloatArray, found) -> float:
+        """Q with the (m,) ``cells`` observed or not, of L1 ``sums`` if observed and of Q's
+        coverage ``found`` if observed and holding ground truth (:meth:`QualityTracker._store`),
+        summed as :func:`~nbv_gym.metrics.cuboids.summarise` sums Q."""
+        t = self.tracker
+        occupied = t._occupied[cells]
+        l1 = np.where(observed, sums, t.config.unobserved_l1)
+        cov = np.where(observed & occupied, found, 0.0)
+        kept_terms, kept_seen = self._terms[cells], self._seen[cells]
+        self._terms[cells] = np.where(occupied, cov, empty_quality(l1, t.config))
+        self._seen[cells] = observed & self._volume[cells]
+        seen = np.flatnonzero(self._seen)
+        seen_occ = int(np.count_nonzero(t._occupied[seen]))
+        unseen = (self._n_occ - seen_occ, self._n_empty - (len(seen) - seen_occ))
+        q = mean_quality(self._terms[seen], *unseen, t.config)
+        self._terms[cells], self._seen[cells] = kept_terms, kept_seen
+        return q
+
+
 #: The attributes of a :class:`QualityTracker` that change with the map.
 _CUBOID_STATE = ("_observed", "_l1", "_cov", "_found", "_terms")
 
@@ -329,6 +394,20 @@ def _coverages(levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov
         corner = (f // (shape[1] * shape[2]) * n, (f // shape[2]) % shape[1] * n, f % shape[2] * n)
         _coverage(levels[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
                   cov[:, f])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _trial_coverages(levels, flat, n, shape, gt_start, gt_voxels, offsets, within, out):
+    """Set ``out[t]`` to the coverage of the one setting whose reach ``within`` (o,) gives
+    (bit 0) of the flat cuboid ``flat[t]`` from its (n, n, n) ``levels`` (bit 0: the setting's
+    threshold exceeded): :func:`_coverages` for one setting, in one thread."""
+    cov = np.empty(1)
+    for t in range(flat.shape[0]):
+        f = flat[t]
+        corner = (f // (shape[1] * shape[2]) * n, (f // shape[2]) % shape[1] * n, f % shape[2] * n)
+        _coverage(levels[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
+                  cov)  # fmt: skip
+        out[t] = cov[0]
 
 
 @njit(cache=True)

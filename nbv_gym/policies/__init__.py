@@ -2,8 +2,8 @@
 frontier baselines (:mod:`~nbv_gym.policies.frontier`), its statistic-based NBV policies
 (:mod:`~nbv_gym.policies.nbv`), the field's references (volumetric information gain
 :mod:`~nbv_gym.policies.information_gain`, a frontier tour :mod:`~nbv_gym.policies.frontier_tour`,
-the one-step ground-truth oracle :mod:`~nbv_gym.policies.oracle`) and the shipped trained agents
-(``models/``)."""
+the one-step ground-truth oracle :mod:`~nbv_gym.policies.oracle`), the time task's teacher
+:mod:`~nbv_gym.policies.teacher` and the shipped trained agents (``models/``)."""
 
 from nbv_gym.policies.registry import (
     MODELS,
@@ -12,6 +12,7 @@ from nbv_gym.policies.registry import (
     PREFIXES,
     REFERENCE_POLICIES,
     SB3_PREFIX,
+    TEACHER_POLICIES,
     Policy,
     PolicyError,
     episode_task,
@@ -32,6 +33,7 @@ __all__ = [
     "PREFIXES",
     "REFERENCE_POLICIES",
     "SB3_PREFIX",
+    "TEACHER_POLICIES",
     "Policy",
     "PolicyError",
     "episode_task",

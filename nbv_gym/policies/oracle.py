@@ -9,10 +9,12 @@ exp(−λ · path), :mod:`nbv_gym.policies.information_gain`) and 32 drawn unifo
 replacement, from the policy's generator seeded by :meth:`OracleGreedy.reset`) from the other
 ``ig-unknown`` candidates (valid goals within the search range); fewer when there are fewer.
 
-Evaluation (:class:`~nbv_gym.simulator.Lookahead`): the scan from g is the very scan the
-environment's step to g would take — the same pose and a copy of the simulator's generator, so
-the same localisation noise (the robot's noisy pose model) and range noise — inserted into a
-scratch copy of the map and evaluated on a scratch quality tracker, then undone. So ΔQ(g) is the
+Evaluation (:class:`~nbv_gym.policies.lookahead.FastLookahead`): the scan from g is the very scan
+the environment's step to g would take — the same pose and the simulator's generator state, so
+the same localisation noise (the robot's noisy pose model) and range noise — tried on the map
+without writing it, and Q after it summed as the quality tracker would, bit for bit the ΔQ of
+inserting it into a scratch copy of the map and scoring a scratch quality tracker
+(:class:`~nbv_gym.simulator.Lookahead`, the reference it is tested against). So ΔQ(g) is the
 exact reward of stepping to g, the environment's map, statistics, quality and generator are left
 bit-identical, and the episode is what it would be without the evaluation. Ties of ΔQ go to the
 first candidate in the order above. Without candidates the goal is a uniformly random valid goal.
@@ -30,8 +32,8 @@ import numpy as np
 
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.policies.information_gain import DEFAULT_LAMBDA, IgUnknown
+from nbv_gym.policies.lookahead import FastLookahead
 from nbv_gym.policies.nbv import uniform_choice
-from nbv_gym.simulator import Lookahead
 
 
 class OracleGreedy:
@@ -50,7 +52,7 @@ class OracleGreedy:
         self.observation_layers = self.ranking.observation_layers
         self.n_best, self.n_random = int(n_best), int(n_random)
         self.rng = np.random.default_rng()
-        self.lookahead: Lookahead | None = None
+        self.lookahead: FastLookahead | None = None
         self.last_evaluation: dict[str, np.ndarray] = {}
 
     def reset(self, seed: int | None = None) -> None:
@@ -61,7 +63,7 @@ class OracleGreedy:
     def attach(self, env: Any) -> None:
         """Read the true map quality through ``env`` (the unwrapped ``ExploreEnv``, after its
         reset)."""
-        self.lookahead = Lookahead(env.sim)
+        self.lookahead = FastLookahead(env.sim)
 
     def candidates(self, observation: Mapping[str, np.ndarray], info: Mapping[str, Any]):
         """(m,) int64 goals to evaluate: the best by ``ig-unknown``, then the uniform draw."""

@@ -36,6 +36,7 @@ POLICIES: dict[str, str] = {
     "ig-entropy": "nbv_gym.policies.information_gain:IgEntropy",
     "frontier-tour": "nbv_gym.policies.frontier_tour:FrontierTour",
     "oracle-greedy": "nbv_gym.policies.oracle:OracleGreedy",
+    "oracle-time": "nbv_gym.policies.teacher:OracleTime",
 }
 
 #: The seven policies of the paper, in its order.
@@ -43,6 +44,8 @@ PAPER_POLICIES = ("random-frontier", "closest-frontier", "random-free", "nbv-nob
                   "nbv-nomega", "nbv-sigma")  # fmt: skip
 #: The field's standard references beside them (``oracle-greedy`` is an oracle).
 REFERENCE_POLICIES = ("ig-unknown", "ig-entropy", "frontier-tour", "oracle-greedy")
+#: The teachers: oracles that label states for learning (privileged, ranked apart).
+TEACHER_POLICIES = ("oracle-time",)
 
 
 class PolicyError(NbvGymError):

@@ -95,24 +95,24 @@ def asset_order(assets) -> list[str]:
     )
 
 
-#: Fourteen colours that stay apart on white, for the thirteen shipped policies and one of yours:
-#: matplotlib's tab10, then black, a dark gold, maroon and navy (a dark teal read as tab10's blue
-#: in thin lines).
+#: Fifteen colours that stay apart on white, for the fourteen shipped policies and one of yours:
+#: matplotlib's tab10, then black, a dark gold, maroon, navy and magenta (a dark teal read as
+#: tab10's blue in thin lines).
 PALETTE = (
     "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-    "#bcbd22", "#17becf", "#000000", "#f5c200", "#800000", "#000080",
+    "#bcbd22", "#17becf", "#000000", "#f5c200", "#800000", "#000080", "#ff00ff",
 )  # fmt: skip
 
 
 def policy_colours(policies: list[str]) -> dict[str, Any]:
     """A colour per policy label: the labels drawn take :data:`PALETTE`'s colours in turn, the
     shipped policies first in a fixed order (the paper's seven, the references, the trained
-    models), then the others in the order given — so up to fourteen labels (every shipped
+    models, the teachers), then the others in the order given — so up to fifteen labels (every shipped
     policy and one of yours) never share a colour, and a shipped policy keeps its colour from
     figure to figure of the same set."""
-    from nbv_gym.policies import MODELS, REFERENCE_POLICIES
+    from nbv_gym.policies import MODELS, REFERENCE_POLICIES, TEACHER_POLICIES
 
-    shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS]
+    shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS, *TEACHER_POLICIES]
 
     def rank(label: str) -> tuple[int, int]:
         base = str(label).replace(ORACLE_MARK, "")

@@ -33,10 +33,10 @@ def test_a_pipe_in_a_cell_splits_no_cell_in_plain_text_or_code():
 def test_every_shipped_policy_and_one_of_yours_get_their_own_colours_in_a_fixed_order():
     from matplotlib.colors import to_rgb
 
-    from nbv_gym.policies import MODELS, PAPER_POLICIES, REFERENCE_POLICIES
+    from nbv_gym.policies import MODELS, PAPER_POLICIES, REFERENCE_POLICIES, TEACHER_POLICIES
     from nbv_gym.reporting.formatting import oracle_label, policy_colours
 
-    shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS]
+    shipped = [*PAPER_POLICIES, *REFERENCE_POLICIES, *MODELS, *TEACHER_POLICIES]
     oracle = shipped.index("oracle-greedy")
     labels = [*reversed(shipped[:oracle]), oracle_label(shipped[oracle]), *shipped[oracle + 1 :]]
     colours = policy_colours([*labels, "mine:A"])

@@ -97,7 +97,7 @@ class States:
             returns = discounted_returns(config.reward_scale * labels.reward, config.learning.gamma)
             keep = np.diff(labels.offsets) > 0
             for t in np.flatnonzero(keep):
-                goals, v = labels.teacher_values(t)
+                goals, v = labels.teacher_values(int(t))
                 candidates.append(goals.astype(np.int64))
                 values.append(v)
                 targets.append(teacher_targets(v, imitation.temperature))
@@ -106,9 +106,9 @@ class States:
                 parts[key].append(array[keep])
         if labels is None:
             raise ValueError("no label shards")
-        return cls(labels.keys, decoding_table(labels.highs),
-                   *(np.concatenate(parts[k]) for k in ("layers", "state", "mask")),
-                   candidates, targets, values, np.concatenate(parts["returns"]))  # fmt: skip
+        layers, state, mask, returns = (np.concatenate(parts[k]) for k in parts)
+        return cls(labels.keys, decoding_table(labels.highs), layers, state, mask, candidates,
+                   targets, values, returns)  # fmt: skip
 
     def __len__(self) -> int:
         return len(self.layers)

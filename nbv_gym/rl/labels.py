@@ -27,9 +27,10 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
+from gymnasium import spaces
 
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.outputs import atomic
@@ -238,7 +239,7 @@ class _Worker:
         teacher.reset(job.seed)
         teacher.attach(env)
         coin = np.random.default_rng([job.seed, 1])
-        recorder = EpisodeRecorder.of_space(env.observation_space)
+        recorder = EpisodeRecorder.of_space(cast(spaces.Dict, env.observation_space))
         done = False
         while not done:
             values = teacher.values(observation, info)

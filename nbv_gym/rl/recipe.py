@@ -81,7 +81,8 @@ def split(config: TrainConfig, out: Path, iteration: int) -> tuple[list[Path], l
     """The training and validation shards of iterations 0…``iteration`` (DAgger's aggregate)."""
     imitation = config.imitation
     assert imitation is not None
-    train_paths, validation = [], []
+    train_paths: list[Path] = []
+    validation: list[Path] = []
     for i in range(iteration + 1):
         for k in range(imitation.episodes_per_iteration):
             path = shard_path(labels_folder(out, i), k)

@@ -4,6 +4,7 @@ distribution; an imitation stopped after an epoch goes on to the same weights; d
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 from pathlib import Path
 
@@ -81,7 +82,7 @@ def test_the_loss_falls_and_the_agreement_rises_on_a_toy_set(toy, tmp_path):
     rows = metrics(tmp_path)
     assert [r["epoch"] for r in rows] == [1, 2, 3, 4, 5, 6]
     losses = [r["train_loss"] for r in rows]
-    assert all(b < a for a, b in zip(losses, losses[1:], strict=False)), losses
+    assert all(b < a for a, b in itertools.pairwise(losses)), losses
     assert rows[-1]["validation_loss"] < rows[0]["validation_loss"] - 1.0  # nats
     assert rows[-1]["top1"] >= 0.5 > 1 / CANDIDATES >= rows[0]["top1"] - 0.2
     assert rows[-1]["top1"] > rows[0]["top1"] and rows[-1]["regret"] < rows[0]["regret"]

@@ -20,17 +20,17 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("sb3_contrib")
 
-from nbv_gym.env.explore import ExploreEnv  # noqa: E402
-from nbv_gym.env.observation import BASE_LAYERS  # noqa: E402
-from nbv_gym.policies.teacher import OracleTime  # noqa: E402
-from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig  # noqa: E402
-from nbv_gym.rl.labelfile import (  # noqa: E402
+from nbv_gym.env.explore import ExploreEnv
+from nbv_gym.env.observation import BASE_LAYERS
+from nbv_gym.policies.teacher import OracleTime
+from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig
+from nbv_gym.rl.labelfile import (
     LEVELS,
     EpisodeLabels,
     decoding_table,
     encode_layers,
 )
-from nbv_gym.rl.labels import collect, episode_seed  # noqa: E402
+from nbv_gym.rl.labels import collect, episode_seed
 
 LAYERS = ("gain_sigma", "gain_unknown", "nbv_candidates")
 #: A short time budget: a few decisions per episode.
@@ -166,3 +166,15 @@ def test_an_iteration_with_a_learner_share_needs_a_learner(world, tmp_path):
     config = replace(config, imitation=replace(config.imitation, episodes_per_iteration=1))
     with pytest.raises(ValueError, match="needs a learner"):
         collect(config, tmp_path, 1, None, progress=False)
+
+
+@pytest.mark.slow  # worker processes, then a LocalCluster started: about a minute on 2 cores
+@pytest.mark.parametrize("where", [{"n_envs": 2}, {"n_envs": 2, "scheduler": "local"}],
+                         ids=["processes", "dask"])  # fmt: skip
+def test_workers_and_a_dask_cluster_collect_the_shards_of_one_process(collected, tmp_path, where):
+    config, reference = collected
+    paths = collect(replace(config, **where), tmp_path, 0, None, progress=False)
+    for ours, theirs in zip(paths, reference, strict=True):
+        a, b = EpisodeLabels.from_file(ours), EpisodeLabels.from_file(theirs)
+        assert np.array_equal(a.layers, b.layers) and np.array_equal(a.values, b.values)
+        assert np.array_equal(a.action, b.action) and a.seed == b.seed

@@ -15,13 +15,13 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("sb3_contrib")
 
-from nbv_gym.configs import config_file  # noqa: E402
-from nbv_gym.env.layers import OPTIONAL_LAYERS  # noqa: E402
-from nbv_gym.env.observation import BASE_LAYERS  # noqa: E402
-from nbv_gym.env.views import PRIVILEGED_KEYS  # noqa: E402
-from nbv_gym.rl.config import load_train_config  # noqa: E402
-from nbv_gym.rl.labelfile import EpisodeLabels  # noqa: E402
-from tests.helpers import invoke  # noqa: E402
+from nbv_gym.configs import config_file
+from nbv_gym.env.layers import OPTIONAL_LAYERS
+from nbv_gym.env.observation import BASE_LAYERS
+from nbv_gym.env.views import PRIVILEGED_KEYS
+from nbv_gym.rl.config import load_train_config
+from nbv_gym.rl.labelfile import EpisodeLabels
+from tests.helpers import invoke
 
 RL_STEPS = 16
 

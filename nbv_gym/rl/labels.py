@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import multiprocessing
 import tempfile
+import threading
 import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -271,27 +272,29 @@ class _Worker:
             self.world = world
 
 
-_WORKERS: dict[CollectionSetup, _Worker] = {}
-_LEARNERS: dict[str, Any] = {}
+#: Per thread (a Dask worker may run tasks on several threads): its worker and learner.
+_CACHE = threading.local()
 
 
 def _worker(setup: CollectionSetup) -> _Worker:
-    """This process's worker of ``setup`` (built on first use, then kept)."""
-    if setup not in _WORKERS:
-        _WORKERS.clear()  # one environment per process
-        _WORKERS[setup] = _Worker(setup)
-    return _WORKERS[setup]
+    """This thread's worker of ``setup`` (built on first use, then kept: one environment per
+    thread)."""
+    if getattr(_CACHE, "worker", None) is None or _CACHE.worker.setup != setup:
+        _CACHE.worker = None  # the previous environment goes before the next is built
+        _CACHE.worker = _Worker(setup)
+    return _CACHE.worker
 
 
 def _learner(model: bytes):
-    """The learner of a model zip's bytes as a policy (loaded once per process and model)."""
+    """The learner of a model zip's bytes as a policy (loaded once per thread and model)."""
     from nbv_gym.rl.agent import SB3Policy
 
     key = hashlib.sha256(model).hexdigest()
-    if key not in _LEARNERS:
-        _LEARNERS.clear()
+    if getattr(_CACHE, "learner_key", None) != key:
+        _CACHE.learner = None
         with tempfile.TemporaryDirectory(prefix="nbv-gym-learner-") as folder:
             path = Path(folder) / "learner.zip"
             path.write_bytes(model)
-            _LEARNERS[key] = SB3Policy(path)  # loaded into memory: the file may go
-    return _LEARNERS[key]
+            _CACHE.learner = SB3Policy(path)  # loaded into memory: the file may go
+        _CACHE.learner_key = key
+    return _CACHE.learner

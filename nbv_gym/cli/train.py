@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import zipfile
 from pathlib import Path
 from typing import Annotated
 
@@ -95,6 +97,9 @@ def train(
     episodes.csv (every training episode) and learning_curve.png. A folder holding an earlier
     training is refused unless --resume continues it or --force replaces it; with --force the
     new files replace the old ones only when the new training finished.
+    A config with an [imitation] table (imitation-time) is a staged recipe: labels of a
+    privileged teacher (DAgger), imitation, then RL from the imitated weights, in --out; killed
+    at any point, the same command goes on (docs/rl.md#imitation).
     A model runs as a policy named sb3:PATH in nbv-gym run and in sweep configs. A model zip
     is code (SB3 unpickles it): load only models you trust.
 
@@ -115,6 +120,7 @@ def train(
       nbv-gym train --config ppo \\
           --resume runs/ppo/checkpoints/model_8000_steps.zip
       nbv-gym train --config ppo --force  # replace runs/ppo
+      nbv-gym train --config imitation-time --out runs/imitation
       tensorboard --logdir runs/ppo/logs
       nbv-gym run --policy sb3:runs/ppo/best_model.zip --world pp3-trees
     """
@@ -131,6 +137,9 @@ def train(
     config_path = config_file(config, "train")
     settings = load_train_config(config_path, overrides)
     out = out or Path("runs") / config_path.stem
+    if settings.imitation is not None:
+        _recipe(settings, out, force or resume is not None, progress, verbose, time_limit)
+        return
     earlier = _check_train_folder(out, force, resume)
     check_resume(settings, resume)  # a resume that cannot go on fails before anything is written
     reach_scheduler(settings.scheduler or None)
@@ -146,6 +155,31 @@ def train(
               "time_limit_s": None if time_limit is None else 60 * time_limit}  # fmt: skip
     steps = _train_into(settings, out, earlier and force and resume is None, kwargs)
     _summary(out, steps)
+
+
+def _recipe(settings, out: Path, refused: bool, progress: bool, verbose: bool, time_limit) -> None:
+    """Run or go on with the staged recipe ``settings`` in ``out`` (nbv_gym.rl.recipe)."""
+    from nbv_gym.core.outputs import OutputError, claim_folder
+    from nbv_gym.rl.recipe import run_recipe
+
+    if refused:
+        raise OutputError(
+            "--resume and --force do not apply to a staged recipe (a config with [imitation]): "
+            "rerun the same command to go on where it stopped, or give another --out."
+        )
+    claim_folder(out, "train")
+    imitation = settings.imitation
+    typer.echo(
+        f"recipe: {imitation.iterations} × ({imitation.episodes_per_iteration} labelled "
+        f"episodes of {imitation.teacher} + imitation), then {settings.algorithm} for "
+        f"{settings.total_timesteps:,} steps → {out}",
+        err=True,
+    )
+    limit = None if time_limit is None else 60 * time_limit
+    final = run_recipe(settings, out, progress, int(verbose), limit)
+    with zipfile.ZipFile(final) as archive:  # SB3's data JSON holds the step count
+        steps = json.loads(archive.read("data"))["num_timesteps"]
+    _summary(final.parent, steps)
 
 
 def _check_train_folder(out: Path, force: bool, resume: Path | None) -> bool:

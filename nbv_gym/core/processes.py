@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 
 #: Environment a worker process needs: one numba thread per worker (the pool is the parallelism).
 WORKER_ENVIRONMENT = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
@@ -24,3 +25,17 @@ def worker_environment(values: dict[str, str] = WORKER_ENVIRONMENT):
                 os.environ.pop(name, None)
             else:
                 os.environ[name] = value
+
+
+def exit_with_parent(alive) -> None:
+    """Make this worker process exit at once, mid-task or not, when ``alive`` (the read end of a
+    pipe whose write end only the parent holds) reaches end-of-file: the parent ended, even by
+    ``kill -9``. Watches from a daemon thread."""
+    threading.Thread(target=_exit_at_end_of_file, args=(alive,), daemon=True).start()
+
+
+def _exit_at_end_of_file(alive) -> None:
+    try:
+        alive.poll(None)
+    finally:
+        os._exit(1)

@@ -29,7 +29,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     """The suite's figures (module docstring) for MaskablePPO training on :data:`PERF_WORLD`."""
     from nbv_gym.rl.config import TrainConfig
     from nbv_gym.rl.learner import prepare_learner
-    from nbv_gym.rl.train import _create, make_vec_env, require_rl
+    from nbv_gym.rl.train import create_model, make_vec_env, require_rl
 
     require_rl()
     from nbv_gym.rl.callbacks import PhaseTimer, TimedVecEnv, TorchThreads
@@ -39,7 +39,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     per_update = config.learning.n_steps * config.n_envs
     envs = TimedVecEnv(make_vec_env(config))
     try:
-        model = _create(config, envs, verbose=0)
+        model = create_model(config, envs, verbose=0)
         progress(f"MaskablePPO warm-up on {PERF_WORLD}: {config.n_envs} envs × {per_update} steps")
         model.learn(per_update, callback=threads)
         progress(f"MaskablePPO training on {PERF_WORLD}: {UPDATES} updates of {per_update} steps")

@@ -7,6 +7,9 @@
 - :class:`~nbv_gym.rl.vecenv.LeanSubprocVecEnv`, :class:`~nbv_gym.rl.daskvec.DaskVecEnv`: the
   training environments in local worker processes, or on a Dask cluster's workers.
 - :mod:`~nbv_gym.rl.extractor`: the CNN feature extractor and the goal-map policies.
+- :func:`~nbv_gym.rl.recipe.run_recipe`: a staged recipe (a config with ``[imitation]``, the
+  shipped ``imitation-time``): DAgger labels of a teacher (:mod:`~nbv_gym.rl.labels`, shards
+  :mod:`~nbv_gym.rl.labelfile`), imitation (:mod:`~nbv_gym.rl.imitation`), then RL.
 
 Only the config imports without torch; the rest needs the ``rl`` extra (the CPU build of PyTorch first:
 :data:`nbv_gym.core.errors.CPU_TORCH`, then ``pip install "nbv-gym[rl]"``). Nothing is

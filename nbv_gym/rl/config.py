@@ -98,6 +98,75 @@ class LearningConfig:
 
 
 @dataclass(frozen=True)
+class ImitationConfig:
+    """The imitation stages of a training recipe (the ``[imitation]`` table): DAgger label
+    collection and imitation of a privileged teacher, before the RL training of the rest of the
+    config starts from the imitated weights (:mod:`nbv_gym.rl.recipe`).
+
+    - ``teacher``: a privileged policy whose ``values(observation, info)`` give each candidate
+      goal's value (``oracle-time``, or ``oracle-time@β``).
+    - ``iterations``: DAgger iterations; iteration ``i`` labels ``episodes_per_iteration``
+      episodes in which the teacher acts at each step with probability
+      ``teacher_share_decay ** i`` (1 in iteration 0), the learner of iteration ``i − 1``
+      otherwise, then imitates on the labels of iterations 0…i.
+    - ``temperature``: the teacher's target distribution over its candidates is
+      ``softmax((value − best) / (temperature · max |value|))``: a candidate worth half the best
+      gets e^−5 of its weight at 0.1.
+    - ``epochs``, ``batch_size`` (states), ``learning_rate``: the imitation of each iteration
+      (Adam, gradients clipped at ``learning.max_grad_norm``).
+    - ``value_coef``: weight of the critic's regression on the episodes' discounted returns
+      (``learning.gamma``, ``reward_scale``), so that the RL stage starts with a fitted critic
+      (0: the critic is left untrained).
+    - ``validation_share``: the share of each iteration's episodes held out for validation.
+    """
+
+    teacher: str = "oracle-time"
+    iterations: int = 4
+    episodes_per_iteration: int = 100
+    teacher_share_decay: float = 0.5
+    temperature: float = 0.1
+    epochs: int = 8
+    batch_size: int = 64
+    learning_rate: float = 1e-3
+    value_coef: float = 0.5
+    validation_share: float = 0.1
+
+    def __post_init__(self) -> None:
+        check(self.iterations >= 1, "iterations", f"must be ≥ 1, got {self.iterations}")
+        check(
+            0 <= self.validation_share < 1,
+            "validation_share",
+            f"must be in [0, 1), got {self.validation_share}",
+        )
+        check(
+            self.episodes_per_iteration >= 1,
+            "episodes_per_iteration",
+            f"must be ≥ 1, got {self.episodes_per_iteration}",
+        )
+        check(
+            0 <= self.teacher_share_decay <= 1,
+            "teacher_share_decay",
+            f"must be in [0, 1], got {self.teacher_share_decay}",
+        )
+        check(self.temperature > 0, "temperature", f"must be > 0, got {self.temperature}")
+        check(self.epochs >= 1, "epochs", f"must be ≥ 1, got {self.epochs}")
+        check(self.batch_size >= 1, "batch_size", f"must be ≥ 1, got {self.batch_size}")
+        check(self.learning_rate > 0, "learning_rate", f"must be > 0, got {self.learning_rate}")
+        check(self.value_coef >= 0, "value_coef", f"must be ≥ 0, got {self.value_coef}")
+
+    def teacher_share(self, iteration: int) -> float:
+        """The probability that the teacher acts at a step of ``iteration`` (DAgger's β)."""
+        return self.teacher_share_decay**iteration
+
+    def is_validation(self, episode: int) -> bool:
+        """Whether episode ``episode`` of an iteration is held out: a ``validation_share`` of
+        the episodes, spread evenly (episode k when ⌊(k + 1) · share⌋ > ⌊k · share⌋; episode 0
+        never, so every iteration trains on one episode at least)."""
+        share = self.validation_share
+        return int((episode + 1) * share) > int(episode * share)
+
+
+@dataclass(frozen=True)
 class TrainConfig:
     """One training run of an RL exploration agent.
 
@@ -142,6 +211,9 @@ class TrainConfig:
       whose network weights a new training starts from — the same algorithm, network and
       observation layers, another task or budget allowed; the step count, the optimiser and the
       input scaling of the observation's bounds are the new run's. ``""``: random weights.
+    - ``imitation``: a table of :class:`ImitationConfig` makes the config a staged recipe —
+      labels of a privileged teacher, imitation, then this RL training from the imitated
+      weights (:mod:`nbv_gym.rl.recipe`); MaskablePPO only.
     """
 
     algorithm: str = "MaskablePPO"
@@ -171,6 +243,7 @@ class TrainConfig:
     torch_threads: int = 0
     scheduler: str = ""
     init_model: str = ""
+    imitation: ImitationConfig | None = None
 
     def __post_init__(self) -> None:
         check(
@@ -230,6 +303,11 @@ class TrainConfig:
             "scheduler",
             f'expected "", "local" or a scheduler address such as tcp://host:8786, got '
             f"{self.scheduler!r}",
+        )
+        check(
+            self.imitation is None or self.algorithm == "MaskablePPO",
+            "imitation",
+            f'imitates with the action mask: set algorithm = "MaskablePPO", got {self.algorithm!r}',
         )
 
     def env_kwargs(self) -> dict[str, Any]:

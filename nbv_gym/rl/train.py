@@ -246,7 +246,9 @@ def write_run_info(config: TrainConfig, out: Path) -> None:
 
 
 def dumps_toml(data: dict[str, Any]) -> str:
-    """``data`` (scalars, lists of scalars and one level of tables) as TOML text."""
+    """``data`` (scalars, lists of scalars and one level of tables) as TOML text; None values
+    (TOML has no null: an unset table such as ``imitation``) are left out."""
+    data = {k: v for k, v in data.items() if v is not None}
     scalars = [f"{k} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
     tables = [
         f"\n[{k}]\n" + "\n".join(f"{kk} = {_toml_value(vv)}" for kk, vv in v.items())
@@ -305,7 +307,8 @@ def policy_setup(config: TrainConfig) -> tuple[type | str, dict[str, Any]]:
     return policy, {**kwargs, "net_arch": {"pi": [], "vf": [64]}}
 
 
-def _create(config: TrainConfig, envs, verbose: int):
+def create_model(config: TrainConfig, envs, verbose: int = 0):
+    """A new model of ``config`` (algorithm, network, learning settings, seed) on ``envs``."""
     policy, policy_kwargs = policy_setup(config)
     learning = to_dict(config.learning)
     if config.algorithm == "A2C":
@@ -324,7 +327,7 @@ def _create(config: TrainConfig, envs, verbose: int):
 
 def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbose: int):
     if resume is None:
-        model = _create(config, envs, verbose)
+        model = create_model(config, envs, verbose)
         if config.init_model:
             _start_from(model, config)
         return model

@@ -12,13 +12,12 @@ from __future__ import annotations
 import os
 import platform
 import signal
-import threading
 import time
 import traceback
 from dataclasses import dataclass
 from typing import Any
 
-from nbv_gym.core.processes import WORKER_ENVIRONMENT
+from nbv_gym.core.processes import WORKER_ENVIRONMENT, exit_with_parent
 from nbv_gym.core.progress import speak_if_asked
 from nbv_gym.policies.registry import add_policy_folders
 from nbv_gym.sweep.config import RunSpec
@@ -62,7 +61,7 @@ def serve(connection, alive) -> None:
     connection closes. ``alive``: the read end of a pipe whose write end only the sweep's main
     process holds; when it reaches end-of-file (the main process ended, even by ``kill -9``)
     this process exits at once, mid-run or not."""
-    threading.Thread(target=_exit_at_end_of_file, args=(alive,), daemon=True).start()
+    exit_with_parent(alive)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
     speak_if_asked()
     _warm_up()
@@ -90,13 +89,6 @@ def _warm_up() -> None:
         import nbv_gym.episode  # noqa: F401
     except Exception:
         pass
-
-
-def _exit_at_end_of_file(alive) -> None:
-    try:
-        alive.poll(None)
-    finally:
-        os._exit(1)
 
 
 def execute_run(task: RunTask) -> dict[str, Any]:

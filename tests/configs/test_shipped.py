@@ -55,7 +55,9 @@ def test_an_unknown_name_suggests_the_near_miss_of_its_kind():
         UnknownNameError, match=r"Unknown sweep config 'quik'. Did you mean 'quick'"
     ):
         config_file("quik", "sweep")
-    with pytest.raises(UnknownNameError, match=r"Valid train configs: ppo, ppo-time\.$"):
+    with pytest.raises(
+        UnknownNameError, match=r"Valid train configs: ppo, ppo-time, ppo-time-wide, ppo-wide\.$"
+    ):
         config_file("quick", "train")
 
 

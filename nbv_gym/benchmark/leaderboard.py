@@ -334,7 +334,9 @@ def leaderboard_markdown(
     best = baseline(entries)
     improvements = improvements_over_baseline(entries) if improvements is None else improvements
     shift = _shift_improvements(entries, shift)
-    suite, version = entries[0].card["suite"], entries[0].card["protocol_version"]
+    # the suite as the scorecard with the most parts records it (a reference may lack a part)
+    suite = max((e.card["suite"] for e in entries), key=lambda recorded: len(recorded["parts"]))
+    version = entries[0].card["protocol_version"]
     lines = [
         "# Leaderboard",
         "",

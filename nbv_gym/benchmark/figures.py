@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.benchmark.ranking import SPLITS, Entry, ranked
+from nbv_gym.benchmark.ranking import SPLITS, Entry, ranked, split_metric
 from nbv_gym.reporting.formatting import printable
 
 
@@ -53,7 +53,7 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
     fig = figure(5.0 * len(SPLITS), 4.4)
     axes = fig.subplots(1, len(SPLITS), squeeze=False)[0]
     for ax, (split, label) in zip(axes, SPLITS.items(), strict=True):
-        metric = entries[0].card["aggregates"].get(split, {}).get("metric", "q")
+        metric = split_metric(entries, split)
         data = {e.label: e.runs(split, metric) for e in ordered}
         finite = np.concatenate([v[np.isfinite(v)] for v, _ in data.values()] + [np.zeros(1)])
         tau = np.linspace(0.0, finite.max() * 1.05 or 1.0, 200)

@@ -17,6 +17,12 @@ performance profiles (Agarwal et al., *Deep RL at the edge of the statistical pr
 NeurIPS 2021): per policy the fraction of runs scoring above τ, with 95 % stratified-bootstrap
 bands.
 
+Beside the headline, the shift split (time task on worlds of recipes outside every training
+distribution) has its own column and its own ``P(X > best)`` against the best reference that
+holds it. Scorecards merge when they share the suite's name and protocol version and every split
+two of them hold has one part hash: a reference scored before a part joined the suite stands for
+its other parts, and the board says that the new part is pending for it.
+
 References scored under another protocol version or suite are left out, and the board says
 that references for this version are pending.
 """
@@ -33,6 +39,7 @@ import numpy as np
 from nbv_gym.benchmark.figures import save_profiles, save_q_time
 from nbv_gym.benchmark.ranking import RANK_SPLITS, SPLIT_COLUMNS, SPLITS, Entry, ranked
 from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
+from nbv_gym.benchmark.suites import SHIFT_SPLIT
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
 
@@ -52,7 +59,7 @@ def gather(paths: list[str | Path], references: bool, suite: str | None = None) 
         REFERENCE_SUITE,
         current_references,
         load_references,
-        pending_note,
+        references_note,
     )
 
     given = [(path, _given_card(path)) for path in _scorecard_paths(paths)]
@@ -67,9 +74,9 @@ def gather(paths: list[str | Path], references: bool, suite: str | None = None) 
         suite = given[0][1]["suite"]["name"] if given else suite or REFERENCE_SUITE.name
         if not load_references(suite):
             raise LeaderboardError(_no_references(suite))
-        current, stale = current_references(suite)
+        current, _ = current_references(suite)
         entries += [Entry(c["policy"]["name"], c, "references") for c in current]
-        pending = pending_note(stale, suite)
+        pending = references_note(suite)
     for path, card in given:
         label = card["policy"]["name"]
         if any(e.label == label for e in entries):
@@ -144,14 +151,20 @@ def _no_references(suite: str) -> str:
 
 def check_comparable(entries: list[Entry]) -> None:
     """Raise :class:`LeaderboardError` naming each source's suite and protocol version unless all
-    ``entries`` share one suite (name and content hash) and one protocol version."""
+    ``entries`` share one suite name and protocol version, every split two of them hold is one
+    part (its hash), and all rank by one split."""
     identities: dict[tuple[str, str, int], list[str]] = {}
+    hashes: dict[str, set[str]] = {}
     for entry in entries:
         suite = entry.card["suite"]
         identity = (suite["name"], suite["hash"], entry.card["protocol_version"])
         identities.setdefault(identity, []).append(entry.source)
-    if len(identities) == 1:
+        for part in suite["parts"]:
+            hashes.setdefault(part["split"], set()).add(part["hash"])
+    names = {(name, version) for name, _, version in identities}
+    if len(names) == 1 and all(len(found) == 1 for found in hashes.values()):
         _check_same_parts(entries)
+        _check_rank_split(entries)
         return
     described = "; ".join(
         f"{_sources(sources)}: suite {name} (hash {digest}), protocol version {version}"
@@ -169,8 +182,9 @@ def _check_same_parts(entries: list[Entry]) -> None:
     parts, so two cards that share it but list other parts (worlds renamed, a part dropped) are
     refused — one of them was edited (an own-world suite's hash cannot be recomputed from its
     card: it hashes the spec files' contents)."""
-    first = entries[0]
-    for entry in entries[1:]:
+    firsts: dict[str, Entry] = {}
+    for entry in entries:
+        first = firsts.setdefault(entry.card["suite"]["hash"], entry)
         for key in ("seed", "parts"):
             if entry.card["suite"][key] != first.card["suite"][key]:
                 suite = first.card["suite"]
@@ -182,26 +196,42 @@ def _check_same_parts(entries: list[Entry]) -> None:
                 )
 
 
+def _check_rank_split(entries: list[Entry]) -> None:
+    """:class:`LeaderboardError` unless every entry ranks by the same split."""
+    splits: dict[str, list[str]] = {}
+    for entry in entries:
+        splits.setdefault(entry.rank_split, []).append(entry.source)
+    if len(splits) > 1:
+        described = "; ".join(f"{_sources(s)}: {split}" for split, s in splits.items())
+        raise LeaderboardError(
+            f"Cannot rank scorecards by different splits — {described}; score every policy on "
+            "the whole suite (`nbv-gym score POLICY --suite standard`)."
+        )
+
+
 def _sources(sources: list[str]) -> str:
     unique = list(dict.fromkeys(sources))
     return unique[0] if len(unique) == 1 else f"{unique[0]} and {len(unique) - 1} more"
 
 
-def baseline(entries: list[Entry]) -> Entry:
+def baseline(entries: list[Entry], split: str | None = None) -> Entry:
     """The best reference that is not an oracle (or, with no such reference, the best entry that
-    is not an oracle, or the best entry)."""
-    players, oracles = ranked(entries)
+    is not an oracle, or the best entry), among the entries that hold ``split`` if given (the
+    first entry when none does)."""
+    holding = [e for e in entries if split is None or e.has(split)] or entries
+    players, oracles = ranked(holding)
     references = [e for e in players if e.reference]
     return (references or players or oracles)[0]
 
 
-def improvement(entry: Entry, best: Entry, seed: int = 0):
-    """``P(entry > best)`` on the ranking split's score with its stratified bootstrap
-    interval."""
+def improvement(entry: Entry, best: Entry, seed: int = 0, split: str | None = None):
+    """``P(entry > best)`` on the score of ``split`` (default: the ranking split) with its
+    stratified bootstrap interval."""
     from nbv_gym.reporting.inference import probability_of_improvement_interval
 
-    a, tasks_a = entry.runs(entry.rank_split, entry.metric())
-    b, tasks_b = best.runs(best.rank_split, best.metric())
+    split = split or entry.rank_split
+    a, tasks_a = entry.runs(split, entry.metric(split))
+    b, tasks_b = best.runs(split, best.metric(split))
     label = int.from_bytes(hashlib.sha256(entry.label.encode()).digest()[:4], "big")
     rng = np.random.default_rng([seed, label])
     return probability_of_improvement_interval(a, tasks_a, b, tasks_b, rng)
@@ -242,31 +272,50 @@ def build_leaderboard(
     say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "
         "bootstrap interval per entry…")  # fmt: skip
     improvements = improvements_over_baseline(entries)
+    shift = improvements_over_baseline(entries, SHIFT_SPLIT) if shift_shown(entries) else None
     out = claim_folder(Path(out), "leaderboard")
     say("drawing Q against the robot's time and the performance profiles…")
     save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
     path = out / "leaderboard.md"
-    path.write_text(leaderboard_markdown(entries, improvements, pending, verified))
+    path.write_text(leaderboard_markdown(entries, improvements, pending, shift, verified))
     notes = [pending, *(f"re-run: {note}" for note in verified)]
-    summary = "\n".join([leaderboard_summary(entries, improvements), *filter(None, notes)])
+    summary = "\n".join([leaderboard_summary(entries, improvements, shift), *filter(None, notes)])
     return Leaderboard(path, write_html(path), summary)
 
 
-def improvements_over_baseline(entries: list[Entry]) -> dict[str, Any]:
-    """``P(entry > baseline)`` with its interval (:func:`improvement`) per entry label; the
-    baseline itself is left out."""
-    best = baseline(entries)
-    return {e.label: improvement(e, best) for e in entries if e is not best}
+def improvements_over_baseline(entries: list[Entry], split: str | None = None) -> dict[str, Any]:
+    """``P(entry > baseline)`` with its interval (:func:`improvement`) on ``split`` (default:
+    the ranking split) per entry label that holds it; the baseline itself is left out."""
+    best = baseline(entries, split)
+    return {
+        e.label: improvement(e, best, split=split)
+        for e in entries
+        if e is not best and (split is None or e.has(split))
+    }
 
 
-def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | None = None) -> str:
+def shift_shown(entries: list[Entry]) -> bool:
+    """Whether the board shows the shift split's ``P(better)``: some entry's suite has it and
+    some entry holds it."""
+    return any(SHIFT_SPLIT in e.suite_splits for e in entries) and any(
+        e.has(SHIFT_SPLIT) for e in entries
+    )
+
+
+def leaderboard_summary(
+    entries: list[Entry],
+    improvements: dict[str, Any] | None = None,
+    shift: dict[str, Any] | None = None,
+) -> str:
     """The ranking as a plain-text table: rank, policy, the ranking score with its interval,
-    ``P(better than baseline)``; oracles last; beside references, ``*`` marks the scorecards
-    given on the command line."""
+    ``P(better than baseline)``, and the shift split's score and ``P(better)`` when shown
+    (``shift``: :func:`improvements_over_baseline` on it, computed when not given); oracles
+    last; beside references, ``*`` marks the scorecards given on the command line."""
     players, oracles = ranked(entries)
     best = baseline(entries)
     improvements = improvements_over_baseline(entries) if improvements is None else improvements
+    shift = _shift_improvements(entries, shift)
     mixed = any(e.reference for e in entries) and not all(e.reference for e in entries)
     header = [
         "rank",
@@ -274,18 +323,20 @@ def leaderboard_summary(entries: list[Entry], improvements: dict[str, Any] | Non
         SPLIT_COLUMNS[best.rank_split],
         f"P(better than {best.label}, equal time)",
     ]
+    if shift is not None:
+        header += [SPLIT_COLUMNS[SHIFT_SPLIT], _shift_title(entries, plain=True)]
     rows = [header]
     for rank, entry in [
         *((str(i + 1), e) for i, e in enumerate(players)),
         *(("oracle", e) for e in oracles),
     ]:
         test = entry.aggregates()
-        poi = improvements.get(entry.label)
         rows.append([
             rank,
             printable(entry.label) + (" *" if mixed and not entry.reference else ""),
             interval_text(test["all"], "iqm") if test else "—",
-            "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]",
+            _poi_text(improvements.get(entry.label)),
+            *(_shift_cells(entry, shift) if shift is not None else ()),
         ])  # fmt: skip
     widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
     lines = [
@@ -302,17 +353,22 @@ def leaderboard_markdown(
     entries: list[Entry],
     improvements: dict[str, Any] | None = None,
     pending: str = "",
+    shift: dict[str, Any] | None = None,
     verified: list[str] | None = None,
 ) -> str:
     """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
-    the figures; ``improvements`` (:func:`improvements_over_baseline`) computed when not given;
-    ``pending``: a note that references of this protocol version are pending, shown in bold
-    above the tables; ``verified``: per given scorecard, which of its runs were re-run here
+    the figures; ``improvements`` (:func:`improvements_over_baseline`) and ``shift`` (the same
+    on the shift split, when shown) computed when not given; ``pending``: a note that
+    references (or some of their splits) are pending, shown in bold above the tables;
+    ``verified``: per given scorecard, which of its runs were re-run here
     (:func:`~nbv_gym.benchmark.rerun.verify_entries`)."""
     players, oracles = ranked(entries)
     best = baseline(entries)
     improvements = improvements_over_baseline(entries) if improvements is None else improvements
-    suite, version = entries[0].card["suite"], entries[0].card["protocol_version"]
+    shift = _shift_improvements(entries, shift)
+    # the suite as the scorecard with the most parts records it (a reference may lack a part)
+    suite = max((e.card["suite"] for e in entries), key=lambda recorded: len(recorded["parts"]))
+    version = entries[0].card["protocol_version"]
     lines = [
         "# Leaderboard",
         "",
@@ -323,7 +379,7 @@ def leaderboard_markdown(
         _legend(best),
         "",
         *_checked(entries, verified or []),
-        _tables(players, best, improvements, rank=True),
+        _tables(players, best, (improvements, shift), rank=True),
     ]
     lines += _pending(entries)
     if oracles:
@@ -335,7 +391,7 @@ def leaderboard_markdown(
             "pose or the world's name), which no robot has: they bound what is "
             "reachable and are not ranked with the others.",
             "",
-            _tables(oracles, best, improvements, rank=False),
+            _tables(oracles, best, (improvements, shift), rank=False),
         ]
     lines += [
         "",
@@ -370,25 +426,27 @@ def _pending(entries: list[Entry]) -> list[str]:
 
 
 def _pending_references(entries: list[Entry]) -> str:
-    """The note that references of the entries' suite for this protocol version are pending
-    ("" when all are current)."""
-    from nbv_gym.benchmark.references import current_references, pending_note
+    """The note that references of the entries' suite for this protocol version, or some of
+    their splits, are pending ("" when all are current and whole)."""
+    from nbv_gym.benchmark.references import references_note
 
-    suite = entries[0].card["suite"]["name"]
-    return pending_note(current_references(suite)[1], suite)
+    return references_note(entries[0].card["suite"]["name"])
 
 
-def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], rank: bool) -> str:
-    """The scores table and the effort table of ``entries``."""
+def _tables(entries: list[Entry], best: Entry, improvements: tuple, rank: bool) -> str:
+    """The scores table and the effort table of ``entries``; ``improvements``: (on the ranking
+    split, on the shift split or None when not shown)."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
     from nbv_gym.reporting.formatting import markdown_table
 
+    ranking, shift = improvements
     ranks = [str(i + 1) if rank else "oracle" for i in range(len(entries))]
     scores = [
         "rank",
         "policy",
         *SPLIT_COLUMNS.values(),
         f"P(better than {markdown_text(best.label)}, equal time)",
+        *([_shift_title(entries)] if shift is not None else []),
     ]
     effort = ["rank", "policy", "Q at the budget", *(f"Q at {d:g} m" for d in MATCHED_PATHS_M),
               "path (m)", "time (s)", "Pareto (Q, path)", "decision (ms/step)"]  # fmt: skip
@@ -397,10 +455,7 @@ def _tables(entries: list[Entry], best: Entry, improvements: dict[str, Any], ran
         [
             markdown_table(
                 scores,
-                [
-                    _score_row(r, e, improvements.get(e.label))
-                    for r, e in zip(ranks, entries, strict=True)
-                ],
+                [_score_row(r, e, ranking, shift) for r, e in zip(ranks, entries, strict=True)],
             ),
             "Effort behind the score (time task, test split; IQM [95 % interval] and means per "
             "run; Pareto: dominated by a policy with as high an IQM of Q at the budget for as short "
@@ -462,6 +517,10 @@ def _legend(best: Entry) -> str:
         "bootstrap (runs resampled within each world × noise level). "
         f"P(better than {markdown_text(best.label)}, equal time): the probability that a run of the policy has a higher area under Q(t) over the time budget than a run of "
         f"{whom} on the same test world and noise level (ties ½); 0.5 = no difference. "
+        "The shift split's column and its P(better): the same on worlds of recipes outside every "
+        "training distribution (denser, sparser, tighter clusters, larger forests), against the "
+        "best reference that holds it; *pending*: the split joined the suite after that "
+        "scorecard was made. "
         "Decision time: the policy's `act`, mean per step. **Bold**: scorecards given on the "
         "command line; the others are the shipped references."
     )
@@ -472,16 +531,54 @@ def _name(entry: Entry) -> str:
     return code if entry.reference else f"**{code}**"
 
 
-def _score_row(rank: str, entry: Entry, poi: Any) -> list[Any]:
-    """One row of the scores table; ``poi``: its ``P(better than baseline)`` (None: the
-    baseline)."""
-    aggregates = entry.card["aggregates"]
+def _score_row(
+    rank: str, entry: Entry, improvements: dict[str, Any], shift: dict[str, Any] | None
+) -> list[Any]:
+    """One row of the scores table: the score of every split (``pending`` for a split of its
+    suite the scorecard lacks), ``P(better than baseline)`` and, when shown, on the shift
+    split."""
     return [
         rank,
         _name(entry),
-        *(interval_text(aggregates[s]["all"], "iqm") if s in aggregates else "—" for s in SPLITS),
-        "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]",
+        *(_split_cell(entry, split) for split in SPLITS),
+        _poi_text(improvements.get(entry.label)),
+        *([_shift_cells(entry, shift)[1]] if shift is not None else []),
     ]
+
+
+def _split_cell(entry: Entry, split: str) -> str:
+    """The IQM [interval] of ``split``; ``pending`` if the entry's suite has it and the
+    scorecard does not; ``—`` otherwise."""
+    if entry.has(split):
+        return interval_text(entry.aggregates(split)["all"], "iqm")
+    return "pending" if split in entry.suite_splits else "—"
+
+
+def _poi_text(poi: Any) -> str:
+    """``mean [low, high]`` of a ``P(better)``, or ``(baseline)`` for None."""
+    return "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]"
+
+
+def _shift_improvements(entries: list[Entry], shift: dict[str, Any] | None):
+    """``P(better)`` on the shift split per entry (``shift`` if given), or None when the board
+    does not show it (:func:`shift_shown`)."""
+    if not shift_shown(entries):
+        return None
+    return improvements_over_baseline(entries, SHIFT_SPLIT) if shift is None else shift
+
+
+def _shift_title(entries: list[Entry], plain: bool = False) -> str:
+    """The shift split's ``P(better)`` column title, naming its baseline."""
+    best = baseline(entries, SHIFT_SPLIT).label
+    return f"P(better than {best if plain else markdown_text(best)}, shift)"
+
+
+def _shift_cells(entry: Entry, shift: dict[str, Any]) -> tuple[str, str]:
+    """(score, ``P(better)``) of ``entry`` on the shift split: ``pending`` both when its
+    scorecard lacks the split its suite has."""
+    if not entry.has(SHIFT_SPLIT):
+        return (_split_cell(entry, SHIFT_SPLIT),) * 2
+    return _split_cell(entry, SHIFT_SPLIT), _poi_text(shift.get(entry.label))
 
 
 def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]:

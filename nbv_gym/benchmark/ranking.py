@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from nbv_gym.benchmark.suites import HEADLINE_SPLIT
+from nbv_gym.benchmark.suites import HEADLINE_SPLIT, SUITES
 
 #: The splits whose score ranks the table, the first a scorecard has: the time task's test split,
 #: else (a suite on your own worlds, ``nbv-gym score --world``, has no test split) the time task
@@ -18,6 +18,7 @@ RANK_SPLITS = (HEADLINE_SPLIT, "time-benchmark")
 #: the label of their score and what it charges.
 SPLITS = {
     "time-test": "area under Q(t) / budget, test split (equal robot time)",
+    "time-shift": "area under Q(t) / budget, shift split (equal robot time)",
     "time-benchmark": "area under Q(t) / budget, benchmark worlds (equal robot time)",
     "test": "Q after the scans, test split (equal scans, travel free)",
     "benchmark": "Q after the scans, benchmark worlds (equal scans, travel free)",
@@ -26,6 +27,7 @@ SPLITS = {
 #: Short column titles of :data:`SPLITS`.
 SPLIT_COLUMNS = {
     "time-test": "equal time, test: IQM area under Q(t)",
+    "time-shift": "equal time, shift: IQM area under Q(t)",
     "time-benchmark": "equal time, benchmark: IQM area under Q(t)",
     "test": "equal scans (travel free), test: IQM Q",
     "benchmark": "equal scans (travel free), benchmark: IQM Q",
@@ -74,6 +76,17 @@ class Entry:
         value = self.aggregates(split).get("all", {}).get("iqm")
         return np.nan if value is None else float(value)
 
+    def has(self, split: str) -> bool:
+        """Whether the entry's scorecard holds ``split``."""
+        return split in self.card["aggregates"]
+
+    @property
+    def suite_splits(self) -> tuple[str, ...]:
+        """The splits of the entry's suite: the shipped suite's (a reference scored before a
+        part joined it lacks that part), else the scorecard's own."""
+        suite = SUITES.get(self.card["suite"]["name"])
+        return suite.splits if suite else tuple(p["split"] for p in self.card["suite"]["parts"])
+
     def runs(self, split: str, metric: str) -> tuple[np.ndarray, list[tuple[str, int]]]:
         """(n,) values of ``metric`` over ``split``'s runs (NaN for null) and their tasks."""
         runs = [r for r in self.card["runs"] if r["split"] == split]
@@ -84,6 +97,11 @@ class Entry:
 def rank_split(card: dict[str, Any]) -> str:
     """The first of :data:`RANK_SPLITS` the scorecard ``card`` has (the first if none)."""
     return next((s for s in RANK_SPLITS if s in card["aggregates"]), RANK_SPLITS[0])
+
+
+def split_metric(entries: list[Entry], split: str) -> str:
+    """The score of ``split`` on the board: its metric in the first entry that holds it."""
+    return next((e.metric(split) for e in entries if e.has(split)), "q")
 
 
 def ranked(entries: list[Entry]) -> tuple[list[Entry], list[Entry]]:

@@ -13,6 +13,18 @@ which scores each named shipped policy (default: all of :func:`shipped_policies`
 (default: standard) with :func:`~nbv_gym.benchmark.suiterun.score_policy` into
 ``DIR/<suite>/<name>/`` (resumable, default ``references-work``) and copies its
 ``scorecard.json`` into the suite's folder of the package.
+
+A part added to a suite leaves the references' other parts valid (each part has its own hash,
+:meth:`~nbv_gym.benchmark.suites.Part.content_hash`): a reference that lacks it is current for
+the parts it holds, and the leaderboard says that the new part is pending for it. Score only
+the missing part and join it to the reference with::
+
+    python -m nbv_gym.benchmark.references [NAME ...] --part SPLIT [--part SPLIT ...]
+
+(default: every reference that lacks one of them; resumable like the rest). ``--restamp``
+rewrites the references' record of their suite — its description and the parts' hashes — when
+the runs they hold are still those of the suite (their recorded suite hash is the hash of the
+same parts now), without running anything.
 """
 
 from __future__ import annotations
@@ -24,8 +36,17 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.benchmark.scorecard import load_scorecard
-from nbv_gym.benchmark.suites import PROTOCOL_VERSION, STANDARD, SUITES, Suite, get_suite
+from nbv_gym.benchmark.scorecard import dumps_strict, join_scorecards, load_scorecard
+from nbv_gym.benchmark.suites import (
+    PROTOCOL_VERSION,
+    STANDARD,
+    SUITES,
+    Suite,
+    get_suite,
+    shipped_identity,
+    shipped_suite,
+)
+from nbv_gym.core.errors import NbvGymError
 
 #: The folder of the shipped reference scorecards, one subfolder per suite.
 REFERENCE_DIR = Path(__file__).with_name("references")
@@ -42,6 +63,10 @@ PENDING: dict[str, dict[str, str]] = {
     }
     for suite in ("standard", "quick")
 }
+
+
+class ReferenceUpdateError(NbvGymError):
+    """A reference cannot be completed or re-stamped as asked; the message says what to do."""
 
 
 def pending(suite: str) -> dict[str, str]:
@@ -76,14 +101,23 @@ def load_references(suite: str = REFERENCE_SUITE.name) -> list[dict[str, Any]]:
 
 def is_current(card: dict[str, Any], suite: str = REFERENCE_SUITE.name) -> bool:
     """Whether the reference scorecard ``card`` belongs to this package's protocol version and
-    to ``suite`` as it is now (a stale one is never mixed into a leaderboard); a suite that is
-    not shipped (a test's) is checked by name and version only."""
-    shipped = SUITES.get(suite)
+    to ``suite`` as it is now — every part it holds is the suite's part of that split, hash and
+    all (a stale one is never mixed into a leaderboard); it may lack parts
+    (:func:`missing_parts`). A suite that is not shipped (a test's) is checked by name and
+    version only."""
     return (
         card["protocol_version"] == PROTOCOL_VERSION
         and card["suite"]["name"] == suite
-        and (shipped is None or card["suite"]["hash"] == shipped.content_hash())
+        and (suite not in SUITES or card["suite"] == shipped_identity(card["suite"]))
     )
+
+
+def missing_parts(card: dict[str, Any]) -> list[str]:
+    """The splits of the shipped suite the scorecard ``card`` names that it does not hold (none
+    for a suite that is not shipped)."""
+    suite = SUITES.get(card["suite"]["name"])
+    held = {part["split"] for part in card["suite"]["parts"]}
+    return [split for split in suite.splits if split not in held] if suite else []
 
 
 def current_references(
@@ -113,6 +147,28 @@ def pending_note(stale: list[dict[str, Any]], suite: str = REFERENCE_SUITE.name)
     )
 
 
+def missing_note(cards: list[dict[str, Any]]) -> str:
+    """One sentence per missing split naming the references ``cards`` that lack it (""
+    when none does): what the leaderboard and the tests say while a new part is pending."""
+    missing: dict[str, list[str]] = {}
+    for card in cards:
+        for split in missing_parts(card):
+            missing.setdefault(split, []).append(card["policy"]["name"])
+    return " ".join(
+        f"The {split} split is pending for {', '.join(names)}: the references were scored "
+        f"before it joined the suite (their other splits stand); score only it: python -m "
+        f"nbv_gym.benchmark.references {' '.join(names)} --part {split}."
+        for split, names in missing.items()
+    )
+
+
+def references_note(suite: str = REFERENCE_SUITE.name) -> str:
+    """What a leaderboard says about the references of ``suite``: :func:`pending_note` of the
+    stale ones and :func:`missing_note` of the current ones ("" when there is nothing to say)."""
+    current, stale = current_references(suite)
+    return " ".join(filter(None, [pending_note(stale, suite), missing_note(current)]))
+
+
 def regenerate(
     names: list[str],
     work: Path,
@@ -137,6 +193,90 @@ def regenerate(
     return written
 
 
+def complete(
+    names: list[str],
+    splits: list[str],
+    work: Path,
+    workers: int | None = None,
+    say: Callable[[str], None] = print,
+    suite: Suite = REFERENCE_SUITE,
+    scheduler: str | None = None,
+) -> list[Path]:
+    """Score only the parts ``splits`` of ``suite`` that each reference of ``names`` lacks, into
+    ``work/<suite>/<name>`` (resumable), and join them to the reference
+    (:func:`~nbv_gym.benchmark.scorecard.join_scorecards`); the rewritten reference files.
+    :class:`ReferenceUpdateError` for a reference that is missing, stale, or whose policy code
+    changed since it was scored (regenerate it whole)."""
+    from nbv_gym.benchmark.scorecard import file_hash, policy_file
+    from nbv_gym.benchmark.suiterun import score_policy
+    from nbv_gym.core.outputs import write_text
+
+    unknown = sorted(set(splits) - set(suite.splits))
+    if unknown:
+        raise ReferenceUpdateError(f"suite {suite.name} has no part {unknown}; its parts: "
+                             f"{', '.join(suite.splits)}")  # fmt: skip
+    written = []
+    for name in names:
+        path = reference_path(name, suite.name)
+        if not path.is_file():
+            raise ReferenceUpdateError(f"{name} has no {suite.name} reference to complete; score it "
+                                 f"whole: python -m nbv_gym.benchmark.references {name}")  # fmt: skip
+        card = load_scorecard(path, recompute=False)
+        todo = [split for split in splits if split in missing_parts(card)]
+        if not todo:
+            say(f"{name}: its reference holds {', '.join(splits)} already")
+            continue
+        hashed = policy_file(name)
+        if not is_current(card, suite.name) or card["policy"]["code_hash"] != (
+            file_hash(hashed) if hashed else None
+        ):
+            raise ReferenceUpdateError(
+                f"{name}'s {suite.name} reference is stale (another protocol version, suite or "
+                f"policy code): regenerate it whole: python -m nbv_gym.benchmark.references {name} "
+                "(or, if only its record of the suite is old, re-stamp it first: --restamp)"
+            )
+        out = work / suite.name / f"{name}+{'+'.join(todo)}"
+        part = score_policy(name, suite.only(todo), out, workers, progress=False, say=say,
+                            scheduler=scheduler)  # fmt: skip
+        write_text(path, dumps_strict(join_scorecards(suite, [card, part])))
+        written.append(path)
+        say(f"{name}: {', '.join(todo)} joined to its reference {path}")
+    return written
+
+
+def restamp(suite: Suite = REFERENCE_SUITE, say: Callable[[str], None] = print) -> list[Path]:
+    """Rewrite the ``suite`` entry of every reference of ``suite`` to the suite's record of the
+    parts it holds (description, part hashes), when its runs are still those parts' (its
+    recorded hash is their hash now); the rewritten files, each validated before it is written.
+    :class:`ReferenceUpdateError`, before any file is written, for a reference whose parts
+    changed (regenerate it)."""
+    from nbv_gym.benchmark.validation import validate_scorecard
+    from nbv_gym.core.inputs import read_json
+    from nbv_gym.core.outputs import write_text
+
+    paths = [reference_path(n, suite.name) for n in shipped_policies()]
+    cards = {path: read_json(path, "Reference scorecard") for path in paths if path.is_file()}
+    stamps = {}
+    for path, card in cards.items():
+        now = shipped_suite(card["suite"])
+        if (
+            card["protocol_version"] != PROTOCOL_VERSION
+            or now is None
+            or (card["suite"]["hash"] != now.content_hash())
+        ):
+            raise ReferenceUpdateError(
+                f"{path.name}: its runs are not those of suite {suite.name}'s parts now (another "
+                f"protocol version or part content); regenerate it: python -m "
+                f"nbv_gym.benchmark.references {card['policy']['name']}"
+            )
+        stamps[path] = validate_scorecard({**card, "suite": now.identity()}, path)
+    changed = [path for path in cards if stamps[path] != cards[path]]
+    for path in changed:
+        write_text(path, dumps_strict(stamps[path]))
+        say(f"{path.name}: re-stamped")
+    return changed
+
+
 def main(argv: list[str] | None = None) -> None:
     """``python -m nbv_gym.benchmark.references``: see the module docstring."""
     parser = argparse.ArgumentParser(
@@ -152,6 +292,11 @@ def main(argv: list[str] | None = None) -> None:
                         help="a Dask scheduler address or 'local' (as nbv-gym score)")  # fmt: skip
     parser.add_argument("--suite", default=REFERENCE_SUITE.name, choices=list(SUITES),
                         help=f"the suite [default: {REFERENCE_SUITE.name}]")  # fmt: skip
+    parser.add_argument("--part", action="append", default=[], metavar="SPLIT",
+                        help="score only this part and join it to the existing references "
+                        "(repeatable) [default: every reference that lacks it]")  # fmt: skip
+    parser.add_argument("--restamp", action="store_true",
+                        help="rewrite the references' record of the suite, running nothing")  # fmt: skip
     args = parser.parse_args(argv)
     unknown = sorted(set(args.names) - set(shipped_policies()))
     if unknown:
@@ -159,9 +304,21 @@ def main(argv: list[str] | None = None) -> None:
             f"not shipped policies: {', '.join(unknown)}; shipped: {', '.join(shipped_policies())}"
         )
     suite = get_suite(args.suite)
-    regenerate(
-        args.names or shipped_policies(), args.work, args.workers, _stderr, suite, args.scheduler
-    )
+    try:
+        if args.restamp:
+            restamp(suite, _stderr)
+        elif args.part:
+            names = args.names or [
+                c["policy"]["name"]
+                for c in load_references(suite.name)
+                if set(args.part) & set(missing_parts(c))
+            ]
+            complete(names, args.part, args.work, args.workers, _stderr, suite, args.scheduler)
+        else:
+            names = args.names or shipped_policies()
+            regenerate(names, args.work, args.workers, _stderr, suite, args.scheduler)
+    except NbvGymError as error:
+        parser.exit(2, f"{parser.prog}: error: {error}\n")
 
 
 def _stderr(message: str) -> None:

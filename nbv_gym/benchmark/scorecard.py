@@ -138,6 +138,39 @@ def build_scorecard(
     }
 
 
+def join_scorecards(suite: Suite, cards: list[dict[str, Any]]) -> dict[str, Any]:
+    """One scorecard of the parts of ``suite`` that ``cards`` hold between them — the cards of
+    one policy, of one protocol version, each scored on some of the suite's parts
+    (:meth:`~nbv_gym.benchmark.suites.Suite.only`): its runs in the suite's order, its
+    aggregates computed again (the same figures a scoring of all those parts at once gives), its
+    wall time the sum of theirs. :class:`ScorecardError` if they are of other policies or
+    versions, or two hold one split."""
+    first = cards[0]
+    for card in cards:
+        splits = [part["split"] for part in card["suite"]["parts"]]
+        problem = (
+            f"of protocol version {card['protocol_version']}, not {PROTOCOL_VERSION}"
+            if card["protocol_version"] != PROTOCOL_VERSION
+            else f"of another policy ({card['policy']['name']})"
+            if card["policy"] != first["policy"]
+            else f"of other parts than suite {suite.name}'s"
+            if card["suite"] != suite.only(splits).identity()
+            else ""
+        )
+        if problem:
+            raise ScorecardError(f"cannot join a scorecard {problem} (splits {splits})")
+    held = [part["split"] for card in cards for part in card["suite"]["parts"]]
+    if len(held) != len(set(held)):
+        raise ScorecardError(f"cannot join scorecards that both hold a split: {held}")
+    joined = suite.only(held)
+    runs = [
+        run for split in joined.splits for c in cards for run in c["runs"] if run["split"] == split
+    ]
+    timing = {"wall_time_s": sum(c["timing"]["wall_time_s"] for c in cards),
+              "workers": cards[-1]["timing"]["workers"]}  # fmt: skip
+    return build_scorecard(joined, first["policy"], runs, timing)
+
+
 def card_aggregates(runs: list[dict[str, Any]], parts: list[dict[str, Any]]) -> dict[str, Any]:
     """The ``aggregates`` of a scorecard: per part of the suite (its ``split`` and ``metric``,
     as in the card's ``suite.parts``), :func:`aggregate` of its runs. The one place they are

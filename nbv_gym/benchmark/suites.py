@@ -6,6 +6,9 @@ repeats under one task:
 - ``time-test``: the time task (:data:`~nbv_gym.core.protocol.TIME_BUDGET_S` seconds of robot time,
   travel and scans charged) on the generated test split; score: the normalised area under Q
   against elapsed time over [0, budget] — the headline figure of the leaderboard;
+- ``time-shift``: the time task on the generated shift split
+  (:mod:`nbv_gym.benchmark.shiftsplit`), worlds of recipes outside every training distribution
+  (denser, sparser, tighter clusters, larger forests); score as ``time-test``;
 - ``time-benchmark``: the time task on the paper's twelve benchmark worlds;
 - ``benchmark``: the budget task (:data:`~nbv_gym.core.protocol.BUDGET_SCANS` scans, no early end) on
   the paper's twelve benchmark worlds; score: Q after the budget;
@@ -20,10 +23,13 @@ Run seeds derive from the suite's seed, the world, the noise level and the repea
 the same first scan and localisation noise (paired runs). ``quick``'s runs are a subset of
 ``standard``'s (same seed, the first worlds and repeats).
 
-:meth:`Suite.content_hash` hashes everything that fixes a run's result — worlds (their spec
-digests), noise levels, repeats, seeds, task settings and the environment's whole default config —
-so a scorecard records which suite it belongs to, and a change to any default marks stored
-scorecards as stale. :data:`PROTOCOL_VERSION` numbers the scoring rules themselves (the
+:meth:`Part.content_hash` hashes everything that fixes the results of a part's runs — worlds
+(their spec digests), noise levels, repeats, the suite's seed, task settings and the
+environment's whole default config — and :meth:`Suite.content_hash` those of all its parts, so a
+scorecard records which suite and which parts it belongs to, and a change to any default marks
+stored scorecards as stale. A part added to a suite leaves the other parts' hashes as they were:
+a scorecard of the suite's other parts (:meth:`Suite.only`) stays valid for them, and only the
+new part's runs are missing. :data:`PROTOCOL_VERSION` numbers the scoring rules themselves (the
 figures per run, the aggregates, the statistics); it is bumped by hand when they change.
 """
 
@@ -31,9 +37,11 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Any
 
+from nbv_gym.benchmark.shiftsplit import shift_worlds
 from nbv_gym.benchmark.testsplit import split_worlds
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError
@@ -60,6 +68,8 @@ BENCHMARK_WORLDS = tuple(
 TASK_METRICS = {"time": "q_time_auc", "budget": "q", "explore": "q_paper_70"}
 #: The split whose score ranks the leaderboard.
 HEADLINE_SPLIT = "time-test"
+#: The split of the time task on worlds outside every training distribution, shown beside it.
+SHIFT_SPLIT = "time-shift"
 
 
 @dataclass(frozen=True)
@@ -115,8 +125,21 @@ class Part:
         simulator = replace(config.simulator, episode=episode, lidar=lidar_config(self.lidar))
         return replace(config, simulator=simulator)
 
+    def content(self) -> dict[str, Any]:
+        """Everything that fixes the results of the part's runs but the suite's seed, as plain
+        data: its :meth:`description`, its worlds' spec digests and the environment config."""
+        env = to_dict(self.env_config())
+        del env["simulator"]["world"], env["simulator"]["noise"]
+        worlds = {spec.name: spec.digest() for spec in self.specs()}
+        return {**self.description(), "worlds": worlds, "env": env}
+
+    def content_hash(self, seed: int) -> str:
+        """SHA-256 (16 hex digits) of :meth:`content` with the suite's ``seed``: the same in
+        every suite that holds this part with this seed."""
+        return _hash({"seed": seed, "part": self.content()})
+
     def description(self) -> dict[str, Any]:
-        """The part as plain data for the scorecard."""
+        """The part as plain data for the scorecard (:meth:`Suite.identity` adds its hash)."""
         return {
             "split": self.split,
             "task": self.task,
@@ -179,50 +202,64 @@ class Suite:
         """The part of split ``split`` (``StopIteration`` if the suite has none)."""
         return next(p for p in self.parts if p.split == split)
 
+    @property
+    def splits(self) -> tuple[str, ...]:
+        """The parts' splits, in order."""
+        return tuple(part.split for part in self.parts)
+
+    def only(self, splits: Iterable[str]) -> Suite:
+        """This suite with only its parts of ``splits`` (in the suite's order; other names are
+        ignored): what a scorecard of some of its parts belongs to. Those parts keep their
+        hashes; the suite's hash is theirs (:meth:`content_hash`)."""
+        wanted = set(splits)
+        return replace(self, parts=tuple(p for p in self.parts if p.split in wanted))
+
     def content(self) -> dict[str, Any]:
         """Everything that fixes the results of a run of the suite, as plain data."""
-        parts = []
-        for part in self.parts:
-            env = to_dict(part.env_config())
-            del env["simulator"]["world"], env["simulator"]["noise"]
-            worlds = {spec.name: spec.digest() for spec in part.specs()}
-            parts.append({**part.description(), "worlds": worlds, "env": env})
-        return {"seed": self.seed, "parts": parts}
+        return {"seed": self.seed, "parts": [part.content() for part in self.parts]}
 
     def content_hash(self) -> str:
         """SHA-256 (16 hex digits) of :meth:`content`."""
-        text = json.dumps(self.content(), sort_keys=True)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        return _hash(self.content())
 
     def identity(self) -> dict[str, Any]:
-        """The suite as a scorecard records it: name, content hash, seed, description, parts."""
+        """The suite as a scorecard records it: name, content hash, seed, description, parts
+        (each with its :meth:`Part.content_hash`)."""
         return {
             "name": self.name,
             "hash": self.content_hash(),
             "seed": self.seed,
             "description": self.description,
-            "parts": [part.description() for part in self.parts],
+            "parts": [
+                {**part.description(), "hash": part.content_hash(self.seed)} for part in self.parts
+            ],
         }
 
 
-def shipped_identity(recorded: dict[str, Any]) -> dict[str, Any] | None:
-    """What a scorecard of the shipped suite it names must record as its ``suite`` (with the
-    lidar preset its parts name), or None for a suite nbv-gym does not ship (a test's, or your
-    own worlds': those are checked against their own parts only)."""
-    suite = shipped_suite(recorded)
-    return None if suite is None else suite.identity()
+def _hash(content: dict[str, Any]) -> str:
+    """SHA-256 (16 hex digits) of ``content`` as sorted JSON."""
+    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
 
 
 def shipped_suite(recorded: dict[str, Any]) -> Suite | None:
-    """The shipped :class:`Suite` a scorecard's ``suite`` entry names, with the lidar preset its
-    parts name; None for a suite nbv-gym does not ship."""
+    """The shipped suite a scorecard's ``suite`` entry names, with the lidar preset its parts
+    name and only the parts it records (:meth:`Suite.only`), or None for a suite nbv-gym does
+    not ship (a test's, or your own worlds': those are checked against their own parts only)."""
     if recorded.get("name") not in SUITES:
         return None
-    lidars = {part.get("lidar", DEFAULT_LIDAR) for part in recorded.get("parts", [])}
+    parts = recorded.get("parts", [])
+    lidars = {part.get("lidar", DEFAULT_LIDAR) for part in parts}
     suite = SUITES[recorded["name"]]
     if len(lidars) == 1 and lidars != {DEFAULT_LIDAR} and next(iter(lidars)) in LIDAR_PRESETS:
         suite = suite.with_lidar(next(iter(lidars)))
-    return suite
+    return suite.only(part.get("split") for part in parts)
+
+
+def shipped_identity(recorded: dict[str, Any]) -> dict[str, Any] | None:
+    """What a scorecard of the shipped suite it names must record as its ``suite``: the
+    identity of :func:`shipped_suite` (None for a suite nbv-gym does not ship)."""
+    suite = shipped_suite(recorded)
+    return None if suite is None else suite.identity()
 
 
 #: Base seed of the shipped suites' run seeds.
@@ -232,6 +269,7 @@ STANDARD = Suite(
     "standard",
     (
         Part("time-test", "time", split_worlds()),
+        Part("time-shift", "time", shift_worlds()),
         Part("time-benchmark", "time", BENCHMARK_WORLDS),
         Part("benchmark", "budget", BENCHMARK_WORLDS),
         Part("test", "budget", split_worlds()),
@@ -239,8 +277,9 @@ STANDARD = Suite(
     ),
     SUITE_SEED,
     "time task (equal robot time, travel and scans charged) and budget task (equal scans, "
-    "travel free) on the 16 test worlds and the 12 benchmark worlds, explore task (the paper's "
-    "protocol) on the 12 benchmark worlds; noise 0, 1, 2; 3 repeats",
+    "travel free) on the 16 test worlds and the 12 benchmark worlds, time task on the 12 shift "
+    "worlds, explore task (the paper's protocol) on the 12 benchmark worlds; noise 0, 1, 2; "
+    "3 repeats",
 )
 _QUICK_WORLDS = tuple(w for w in BENCHMARK_WORLDS if w.startswith("pp1-"))
 QUICK = Suite(

@@ -53,8 +53,10 @@ def score(
 
     The standard suite runs the time task (600 s of robot time: travel at 1 m/s and 10 s per
     scan charged) and the budget task (12 scans, travel free) on the 16 generated test worlds and
-    the 12 benchmark worlds, and the paper's explore task on the 12 benchmark worlds, at noise 0,
-    1 and 2 with fixed seeds (612 runs); quick is the same shape, small (120 runs). The
+    the 12 benchmark worlds, the time task on the 12 shift worlds (recipes outside every training
+    distribution), and the paper's explore task on the 12 benchmark worlds, at noise 0, 1 and 2
+    with fixed seeds (720 runs); quick is the same shape without the shift worlds, small (120
+    runs). The
     scorecard holds every run's figures (with Q against elapsed time and path length) and, per
     split and asset type, the IQM and mean with 95 % stratified bootstrap intervals and the
     optimality gap, and Q at the time budget and at matched path (25–200 m). Killed, the same command resumes.

@@ -25,7 +25,12 @@ from nbv_gym.core.protocol import (
 )
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
-from nbv_gym.worlds.distribution import POOL_SIZE, is_distribution
+from nbv_gym.worlds.distribution import (
+    MAX_POOL_SIZE,
+    WIDE_POOL_SIZE,
+    heldout_names,
+    is_distribution,
+)
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -59,10 +64,12 @@ def algorithm_class(name: str) -> type[BaseAlgorithm]:
     return getattr(importlib.import_module(module), cls)
 
 
-#: Training draws a fresh world of every asset type from a pool disjoint from the benchmark.
-TRAIN_WORLDS = ("random:mixed",)
-#: Evaluation on held-out benchmark worlds.
-EVAL_WORLDS = tuple(f"pp3-{a}" for a in ("cuboids", "crosses", "helicoids", "trees"))
+#: Training draws worlds from ``random:wide``, whose recipe covers and exceeds the test split's
+#: (its seeds and recipe are disjoint from every suite's worlds).
+TRAIN_WORLDS = ("random:wide",)
+#: Evaluation (during training, and of a packaged model) on held-out worlds of the same
+#: distribution — never on worlds a suite scores.
+EVAL_WORLDS = heldout_names("wide", 8)
 
 
 @dataclass(frozen=True)
@@ -176,10 +183,12 @@ class TrainConfig:
       :mod:`~nbv_gym.rl.vecenv`); each cycles over its share of ``train_worlds``, one world per
       episode.
     - ``train_worlds`` / ``eval_worlds``: world names or spec files, or one world distribution
-      (``random:mixed``, ``random:trees``, …: a world drawn from a pool of ``world_pool_size``
-      every ``episodes_per_world`` resets, 4 by default: a switch to a world with trees costs
-      ~1.8 s CPU, and 4 cut budget training's CPU per step from 83 to 52 ms); evaluation cycles over ``eval_worlds`` with
-      ``eval_episodes`` episodes (default: one per world).
+      (``random:wide``, ``random:mixed``, ``random:trees``, …: a world drawn from a pool of
+      ``world_pool_size`` every ``episodes_per_world`` resets, 4 by default: a switch to a
+      world with trees costs ~1.8 s CPU, and 4 cut budget training's CPU per step from 83 to
+      52 ms); evaluation cycles over ``eval_worlds`` with ``eval_episodes`` episodes (default:
+      one per world). Defaults: the 256-world pool of ``random:wide``, evaluated on its
+      held-out worlds ``random:wide/heldout-0`` … ``-7`` (:mod:`nbv_gym.worlds.pools`).
     - ``task``: ``"budget"`` (``max_steps`` scans, no termination, travel free: the agent cannot
       profit from delaying discovery), ``"time"`` (``time_budget_s`` seconds of robot time,
       travel and scans charged) or ``"explore"`` (terminate at 70 % discovered);
@@ -221,7 +230,7 @@ class TrainConfig:
     n_envs: int = 2
     train_worlds: tuple[str, ...] = TRAIN_WORLDS
     eval_worlds: tuple[str, ...] = EVAL_WORLDS
-    world_pool_size: int = POOL_SIZE
+    world_pool_size: int = WIDE_POOL_SIZE
     episodes_per_world: int = 4
     task: str = "budget"
     noise: int = 1
@@ -269,7 +278,11 @@ class TrainConfig:
                 key,
                 f"a world distribution (random:…) must be the only entry, got {list(worlds)}",
             )
-        check(self.world_pool_size >= 1, "world_pool_size", "must be ≥ 1")
+        check(
+            1 <= self.world_pool_size <= MAX_POOL_SIZE,
+            "world_pool_size",
+            f"must be from 1 to {MAX_POOL_SIZE}",
+        )
         check(self.episodes_per_world >= 1, "episodes_per_world", "must be ≥ 1")
         check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
         check_noise_level(self.noise)

@@ -1,13 +1,20 @@
 """World distributions for training: ``random:cuboids``, ``random:crosses``, ``random:helicoids``,
-``random:trees`` and ``random:mixed``.
+``random:trees``, ``random:mixed`` and ``random:wide``.
 
-A distribution is a bounded pool of ``pool_size`` procedural worlds, world ``k`` generated from the
-benchmark worlds' recipe (50 assets, Poisson cluster process, 60 m window) with placement seed
-:data:`FIRST_SEED` ``+ k`` — disjoint from the benchmark's seeds (1–3), so the benchmark worlds
-stay held out. ``random:mixed`` mixes the four asset types in equal shares in every world. Worlds
-are built on first use and kept in the world cache (:func:`~nbv_gym.worlds.world.load_world`), so
-building is paid once per world and the cache holds at most ``pool_size`` worlds per
-distribution (about 1.5 MB per world of cuboids, crosses or helicoids; 18 MB per world of trees).
+A distribution is a bounded pool of ``pool_size`` procedural worlds; world ``k`` is
+:func:`~nbv_gym.worlds.pools.member_data` (name ``random:<kind>/<k>``). The asset-type and
+``mixed`` pools use the benchmark worlds' recipe (50 assets, Poisson cluster process, 60 m
+window) with placement seed :data:`FIRST_SEED` ``+ k`` — disjoint from the benchmark's seeds
+(1–3), so the benchmark worlds stay held out; ``random:mixed`` mixes the four asset types in
+equal shares in every world. ``random:wide`` draws each world's asset count, clusters, cluster
+radius, window, scale ranges and asset mix from :data:`~nbv_gym.worlds.pools.WIDE_RECIPE`, which
+covers and exceeds the test split's ranges. Each pool has held-out worlds of its recipe
+(``random:<kind>/heldout-<k>``, other seeds) for a training's own evaluation.
+
+Worlds are built on first use and kept in the world cache
+(:func:`~nbv_gym.worlds.world.load_world`), so building is paid once per world and the cache
+holds at most ``pool_size`` worlds per distribution (about 1.5 MB per world of cuboids, crosses
+or helicoids; 18 MB per world of 50 trees).
 """
 
 from __future__ import annotations
@@ -18,28 +25,24 @@ import numpy as np
 
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import UnknownNameError
-from nbv_gym.worlds.spec import ASSET_TYPES, AssetConfig, PlacementConfig, WorldSpec
+from nbv_gym.worlds.pools import (
+    FIRST_SEED,
+    KINDS,
+    MAX_POOL_SIZE,
+    POOL_SIZE,
+    PREFIX,
+    WIDE_POOL_SIZE,
+    is_distribution,
+    member_name,
+)
+from nbv_gym.worlds.spec import WorldSpec, member_spec
 from nbv_gym.worlds.world import World, load_world
-
-#: Prefix of a distribution's name: ``random:<asset type>`` or ``random:mixed``.
-PREFIX = "random:"
-#: The distributions' names after the prefix.
-KINDS = (*ASSET_TYPES, "mixed")
-#: Placement seed of a pool's world 0; world ``k`` uses ``FIRST_SEED + k``.
-FIRST_SEED = 1000
-#: Worlds in a pool unless configured otherwise.
-POOL_SIZE = 32
-
-
-def is_distribution(world: str) -> bool:
-    """Whether ``world`` names a distribution (``random:…``) rather than one world."""
-    return str(world).startswith(PREFIX)
 
 
 @dataclass(frozen=True)
 class WorldDistribution:
-    """The pool of ``pool_size`` worlds behind ``random:<kind>``; ``kind`` is an asset type or
-    ``"mixed"``."""
+    """The pool of ``pool_size`` worlds behind ``random:<kind>``; ``kind`` is one of
+    :data:`~nbv_gym.worlds.pools.KINDS`."""
 
     kind: str
     pool_size: int = POOL_SIZE
@@ -47,7 +50,11 @@ class WorldDistribution:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise UnknownNameError("world distribution", PREFIX + self.kind, distribution_names())
-        check(self.pool_size >= 1, "world_pool_size", f"must be ≥ 1, got {self.pool_size}")
+        check(
+            1 <= self.pool_size <= MAX_POOL_SIZE,
+            "world_pool_size",
+            f"must be from 1 to {MAX_POOL_SIZE}, got {self.pool_size}",
+        )
 
     @classmethod
     def from_name(cls, name: str, pool_size: int = POOL_SIZE) -> WorldDistribution:
@@ -56,19 +63,13 @@ class WorldDistribution:
 
     @property
     def name(self) -> str:
-        """The distribution's world name (``dist:KIND``)."""
+        """The distribution's world name (``random:KIND``)."""
         return PREFIX + self.kind
 
     def spec(self, index: int) -> WorldSpec:
         """The spec of the pool's world ``index`` (0 ≤ index < ``pool_size``)."""
         check(0 <= index < self.pool_size, "index", f"expected [0, {self.pool_size}), got {index}")
-        mix = {kind: 1.0 for kind in ASSET_TYPES} if self.kind == "mixed" else {self.kind: 1.0}
-        return WorldSpec(
-            name=f"random-{self.kind}-{index:04d}",
-            placement=PlacementConfig(seed=FIRST_SEED + index),
-            assets=AssetConfig(mix=mix),
-            description=f"World {index} of {self.name} (placement seed {FIRST_SEED + index})",
-        )
+        return member_spec(self.kind, index)
 
     def draw(self, rng: np.random.Generator) -> int:
         """A uniformly drawn index into the pool."""
@@ -79,6 +80,17 @@ class WorldDistribution:
         return load_world(self.spec(index))
 
 
+__all__ = [
+    "FIRST_SEED", "KINDS", "MAX_POOL_SIZE", "POOL_SIZE", "PREFIX", "WIDE_POOL_SIZE",
+    "WorldDistribution", "distribution_names", "heldout_names", "is_distribution", "member_name",
+]  # fmt: skip
+
+
 def distribution_names() -> list[str]:
-    """``random:cuboids`` … ``random:mixed``."""
+    """``random:cuboids`` … ``random:wide``."""
     return [PREFIX + kind for kind in KINDS]
+
+
+def heldout_names(kind: str, count: int) -> tuple[str, ...]:
+    """The world names of held-out worlds 0 … ``count - 1`` of ``random:<kind>``."""
+    return tuple(member_name(kind, index, heldout=True) for index in range(count))

@@ -20,10 +20,11 @@ from nbv_gym.core.config import check, from_dict, parse_toml, read_text, to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError, missing_file
 from nbv_gym.core.grid import MAX_WINDOW_M
 from nbv_gym.core.names import check_name
+from nbv_gym.worlds import pools
+from nbv_gym.worlds.recipe import ASSET_TYPES
 from nbv_gym.worlds.scenes.spec import SceneSpec, parse_scene_spec
 from nbv_gym.worlds.trees import TreeConfig
 
-ASSET_TYPES = ("cuboids", "crosses", "helicoids", "trees")
 #: Upper bounds of the values that size a world's memory and build time (the benchmark worlds
 #: hold 50 assets from a library of 15 trees; 1000 assets in the 60 m window overlap already).
 MAX_ASSETS = 1000
@@ -184,13 +185,16 @@ def benchmark_names() -> list[str]:
 
 
 def load_spec(name_or_path: str | Path) -> AnySpec:
-    """The spec of a benchmark world name (e.g. ``"pp1-trees"``) or of a ``.toml`` file path
+    """The spec of a benchmark world name (e.g. ``"pp1-trees"``), of a training pool's world
+    (``"random:wide/heldout-3"``, :mod:`nbv_gym.worlds.pools`) or of a ``.toml`` file path
     (procedural, or a scene: :mod:`nbv_gym.worlds.scenes`)."""
     if not str(name_or_path).strip():
         raise ConfigError(
             "The world name is empty; give a benchmark world (see `nbv-gym worlds list`) or "
             "the path of a world spec file (.toml)."
         )
+    if (member := pools.parse_member(str(name_or_path))) is not None:
+        return member_spec(*member)
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():
@@ -202,6 +206,21 @@ def load_spec(name_or_path: str | Path) -> AnySpec:
     spec = parse_spec(files[str(name_or_path)].read_text(), str(name_or_path))
     assert isinstance(spec, WorldSpec)  # the shipped specs are procedural
     return spec
+
+
+def member_spec(kind: str, index: int, heldout: bool = False) -> WorldSpec:
+    """The spec of world ``index`` of the training pool ``random:<kind>`` (or of its held-out
+    set): :func:`~nbv_gym.worlds.pools.member_data`; :class:`UnknownNameError` for an unknown
+    kind, :class:`ConfigError` for an index out of range."""
+    if kind not in pools.KINDS:
+        names = [pools.PREFIX + k for k in pools.KINDS]
+        raise UnknownNameError("world distribution", pools.PREFIX + kind, names)
+    check(
+        0 <= index < pools.MAX_POOL_SIZE,
+        "world",
+        f"{pools.member_name(kind, index, heldout)}: the index must be below {pools.MAX_POOL_SIZE}",
+    )
+    return from_dict(WorldSpec, pools.member_data(kind, index, heldout))
 
 
 def asset_type(spec) -> str:

@@ -12,6 +12,7 @@ from nbv_gym.benchmark.leaderboard import (
     LeaderboardError,
     baseline,
     build_leaderboard,
+    check_comparable,
     gather,
     improvement,
     leaderboard_summary,
@@ -329,3 +330,42 @@ def test_two_cards_of_one_suite_hash_that_list_other_parts_are_refused(tiny_suit
     renamed["aggregates"] = card_aggregates(renamed["runs"], renamed["suite"]["parts"])
     with pytest.raises(LeaderboardError, match=r"with one hash \(\w+\) but different suite\.parts"):
         gather([honest, write(tmp_path, renamed)], references=False)
+
+
+def test_the_shift_split_has_its_column_and_p_better_and_is_pending_where_missing(
+    tiny_suite, tmp_path, monkeypatch
+):
+    """A reference scored before the shift part joined its suite ranks by its other parts; its
+    shift cells and the board say the split is pending for it, and the shift ``P(better)`` is
+    against the best reference that holds the split."""
+    import nbv_gym.benchmark.references as references
+    from nbv_gym.benchmark import suites
+
+    shift = replace(tiny_suite.part("time-test"), split="time-shift")
+    suite = replace(tiny_suite, parts=(tiny_suite.parts[0], shift, *tiny_suite.parts[1:]))
+    monkeypatch.setitem(suites.SUITES, "tiny", suite)
+    monkeypatch.setattr(references, "REFERENCE_DIR", tmp_path / "references")
+    (tmp_path / "references" / "tiny").mkdir(parents=True)
+    old = suite.only(s for s in suite.splits if s != "time-shift")
+    for name, scored, q in (("closest-frontier", suite, 0.5), ("nbv-sigma", old, 0.6)):
+        path = tmp_path / "references" / "tiny" / f"{name}.json"
+        path.write_text(dumps_strict(card(scored, name, q)))
+    mine = write(tmp_path, card(suite, "mine", 0.55))
+    entries = gather([mine], references=True)
+    assert [e.label for e in ranked(entries)[0]] == ["nbv-sigma", "mine", "closest-frontier"]
+    assert baseline(entries).label == "nbv-sigma"
+    assert baseline(entries, "time-shift").label == "closest-frontier"
+    text = build_leaderboard([mine], True, tmp_path / "board").markdown.read_text()
+    assert "equal time, shift: IQM area under Q(t)" in text
+    assert "P(better than closest-frontier, shift)" in text
+    row = next(line for line in text.splitlines() if line.startswith("| 1 | `nbv-sigma`"))
+    assert row.count("| pending |") == 2  # its shift score and its shift P(better)
+    assert "**The time-shift split is pending for nbv-sigma" in text
+    mine_row = next(line for line in text.splitlines() if "**`mine`**" in line)
+    assert mine_row.rstrip(" |").endswith("1.00 [1.00, 1.00]")  # every shift run beats cf's
+    summary = leaderboard_summary(entries).splitlines()
+    assert "P(better than closest-frontier, shift)" in summary[0]
+    other = replace(suite, parts=(suite.parts[0], replace(shift, repeats=1), *suite.parts[2:]))
+    pair = [Entry("mine", card(suite, "mine", 0.5), "a"), Entry("b", card(other, "b", 0.4), "b")]
+    with pytest.raises(LeaderboardError, match="different suites or protocol versions"):
+        check_comparable(pair)  # one split, two contents

@@ -80,7 +80,7 @@ def test_a_card_whose_policy_code_is_not_here_is_refused():
 
 
 #: The seed whose one run of the closest-frontier reference is a budget run (12 scans: cheap).
-SEED, INDEX = 1, 289
+SEED, INDEX = 12, 441
 
 
 def _forged(card: dict, index: int, factor: float = 1.2) -> dict:
@@ -118,5 +118,5 @@ def test_a_self_consistent_forgery_is_refused_by_verify_and_the_reference_passes
     assert "does not reproduce — q: stored" in refused.err and not (tmp_path / "b1").exists()
     passed = invoke("leaderboard", reference_path("closest-frontier"), *verify, "--out", "b2")
     assert passed.code == 0, passed.err
-    assert f"1 of its 612 runs re-run here reproduce (seed {SEED}: runs {INDEX})" in passed.out
+    assert f"1 of its 720 runs re-run here reproduce (seed {SEED}: runs {INDEX})" in passed.out
     assert "sampled runs were re-run here" in (tmp_path / "b2" / "leaderboard.md").read_text()

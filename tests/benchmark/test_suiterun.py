@@ -15,6 +15,7 @@ from nbv_gym.benchmark.scorecard import (
     SCHEMA_PATH,
     ScorecardError,
     dumps_strict,
+    join_scorecards,
     load_scorecard,
     policy_identity,
     summary,
@@ -173,6 +174,43 @@ def test_a_killed_scoring_resumes_with_the_missing_runs_only(scored, tiny_suite,
     card = score_policy("closest-frontier", tiny_suite, out, workers=1, progress=False)
     assert without_timings(strict_json(dumps_strict(card))) == without_timings(first)
     assert lost.exists()
+
+
+def test_a_part_added_to_a_suite_is_scored_alone_and_joins_the_reference(
+    scored, tiny_suite, tmp_path, monkeypatch
+):
+    """A reference scored before a part joined its suite stands for its other parts (current,
+    the part named pending); ``complete`` scores only that part and joins it: the scorecard a
+    scoring of the whole suite gives. (The runs are resumed from a whole scoring's folders.)"""
+    import shutil
+
+    from nbv_gym.benchmark import references, suites
+
+    out, whole = scored
+    monkeypatch.setitem(suites.SUITES, "tiny", tiny_suite)
+    monkeypatch.setattr(references, "REFERENCE_DIR", tmp_path / "references")
+    rest = tiny_suite.only(s for s in tiny_suite.splits if s != "time-test")
+    for folder in ("old", "tiny/closest-frontier+time-test"):
+        shutil.copytree(out, tmp_path / folder)
+    old = score_policy("closest-frontier", rest, tmp_path / "old", workers=1, progress=False)
+    assert [p["hash"] for p in old["suite"]["parts"]] == [
+        p.content_hash(tiny_suite.seed) for p in rest.parts
+    ]  # a part's hash is the same in the suite and in its part of it
+    path = references.reference_path("closest-frontier", "tiny")
+    path.parent.mkdir(parents=True)
+    path.write_text(dumps_strict(old))
+    assert references.is_current(old, "tiny") and references.missing_parts(old) == ["time-test"]
+    note = references.references_note("tiny")
+    assert note.startswith("The time-test split is pending for closest-frontier")
+    assert "--part time-test" in note
+    written = references.complete(
+        ["closest-frontier"], ["time-test"], tmp_path, 1, print, tiny_suite
+    )
+    joined = load_scorecard(path)
+    assert written == [path] and references.missing_parts(joined) == []
+    assert without_timings(joined) == without_timings(strict_json(dumps_strict(whole)))
+    with pytest.raises(ScorecardError, match="both hold a split"):
+        join_scorecards(tiny_suite, [old, old])
 
 
 def test_a_folder_holding_another_policys_scorecard_is_refused(scored, tiny_suite):

@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import pytest
 
+from nbv_gym.benchmark.shiftsplit import shift_worlds
 from nbv_gym.benchmark.suiterun import part_config, write_world_specs
 from nbv_gym.benchmark.suites import (
     BENCHMARK_WORLDS,
@@ -26,14 +27,18 @@ from nbv_gym.worlds.distribution import KINDS, POOL_SIZE, WorldDistribution
 
 def test_standard_suite_runs_the_time_and_budget_tasks_on_both_splits_and_the_paper_protocol():
     parts = {part.split: part for part in STANDARD.parts}
-    assert list(parts) == ["time-test", "time-benchmark", "benchmark", "test", "explore"]
+    assert list(parts) == ["time-test", "time-shift", "time-benchmark", "benchmark", "test",
+                           "explore"]  # fmt: skip
     assert sorted(parts["benchmark"].world_names) == benchmark_names()
     assert parts["time-benchmark"].world_names == parts["benchmark"].world_names
     assert parts["time-test"].world_names == parts["test"].world_names
     assert parts["explore"].world_names == BENCHMARK_WORLDS
     assert len(parts["test"].worlds) >= 12
-    assert [p.task for p in parts.values()] == ["time", "time", "budget", "budget", "explore"]
-    assert [p.metric for p in parts.values()] == ["q_time_auc"] * 2 + ["q", "q", "q_paper_70"]
+    assert parts["time-shift"].world_names == tuple(w.name for w in shift_worlds())
+    assert [p.task for p in parts.values()] == ["time"] * 3 + ["budget", "budget", "explore"]
+    assert [p.metric for p in parts.values()] == ["q_time_auc"] * 3 + ["q", "q", "q_paper_70"]
+    assert parts["time-shift"].time_budget_s == parts["time-test"].time_budget_s
+    assert (parts["time-shift"].noise, parts["time-shift"].repeats) == ((0, 1, 2), 3)
     assert all(p.noise == (0, 1, 2) and p.repeats >= 2 for p in parts.values())
     assert parts["benchmark"].budget_scans == 12 and parts["time-test"].time_budget_s == 600
     assert HEADLINE_SPLIT == "time-test"
@@ -64,9 +69,27 @@ def test_test_worlds_are_generated_the_same_every_time():
     assert split_world(7).digest() == "99fc253daafa92a6"  # fixed: a change moves every score
 
 
+def test_a_part_has_its_own_hash_so_adding_a_part_leaves_the_others_valid():
+    """Each part's hash covers its worlds, noise, repeats, task settings, environment and the
+    suite's seed, and nothing of the other parts: a scorecard of some parts (Suite.only) records
+    the same part hashes as the whole suite, and a suite hash that is theirs."""
+    seed = STANDARD.seed
+    hashes = {p["split"]: p["hash"] for p in STANDARD.identity()["parts"]}
+    assert hashes == {p.split: p.content_hash(seed) for p in STANDARD.parts}
+    assert len(set(hashes.values())) == len(hashes)
+    before = STANDARD.only(s for s in STANDARD.splits if s != "time-shift")
+    assert before.splits == ("time-test", "time-benchmark", "benchmark", "test", "explore")
+    assert all(p["hash"] == hashes[p["split"]] for p in before.identity()["parts"])
+    assert before.content_hash() != STANDARD.content_hash()
+    assert QUICK.part("time-test").content_hash(seed) != hashes["time-test"]  # fewer worlds
+    assert replace(STANDARD.parts[0], repeats=4).content_hash(seed) != hashes["time-test"]
+    assert STANDARD.parts[0].content_hash(seed + 1) != hashes["time-test"]
+    assert "time-shift" not in QUICK.splits  # the quick suite is as it was
+
+
 def test_quick_runs_are_a_subset_of_the_standard_runs(tmp_path):
     sources = write_world_specs(STANDARD, tmp_path)
-    for quick_part in QUICK.parts:
+    for quick_part in QUICK.parts:  # the standard suite's shift split has no quick twin
         standard_part = STANDARD.part(quick_part.split)
         assert set(quick_part.world_names) < set(standard_part.world_names)
         quick = _runs(QUICK, quick_part, sources)

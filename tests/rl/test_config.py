@@ -9,17 +9,26 @@ from nbv_gym.core.errors import ConfigError
 from nbv_gym.rl.config import EVAL_WORLDS, TRAIN_WORLDS, TrainConfig, load_train_config
 from nbv_gym.worlds import benchmark_names
 
-EXAMPLE = config_file("ppo")
+EXAMPLE = config_file("ppo-wide")
 
 
 def test_example_config_is_the_default_config():
     assert load_train_config(EXAMPLE) == TrainConfig()
 
 
-def test_default_config_trains_on_a_distribution_and_evaluates_on_benchmark_worlds():
-    assert TRAIN_WORLDS == ("random:mixed",)
-    assert set(EVAL_WORLDS) < set(benchmark_names()) and len(EVAL_WORLDS) == 4
+def test_default_config_trains_on_the_wide_pool_and_evaluates_on_its_held_out_worlds():
+    assert TRAIN_WORLDS == ("random:wide",) and TrainConfig().world_pool_size >= 256
+    assert EVAL_WORLDS == tuple(f"random:wide/heldout-{k}" for k in range(8))
+    assert not set(EVAL_WORLDS) & set(benchmark_names())
     assert TrainConfig().task == "budget"
+
+
+def test_the_shipped_agents_recipes_still_describe_how_they_were_trained():
+    for name in ("ppo", "ppo-time"):  # as the models' stored configs say
+        config = load_train_config(config_file(name, "train"))
+        assert config.train_worlds == ("random:mixed",) and config.world_pool_size == 32
+    wide = load_train_config(config_file("ppo-time-wide", "train"))
+    assert (wide.task, wide.train_worlds, wide.eval_worlds) == ("time", TRAIN_WORLDS, EVAL_WORLDS)
 
 
 def test_overrides_replace_file_values(tmp_path):

@@ -19,6 +19,7 @@ from nbv_gym.simulator import Simulator
 from nbv_gym.worlds import ASSET_TYPES, benchmark_names, cache_dir, load_spec
 from nbv_gym.worlds.distribution import (
     FIRST_SEED,
+    WIDE_POOL_SIZE,
     WorldDistribution,
     distribution_names,
     is_distribution,
@@ -44,12 +45,46 @@ def test_placement_seeds_are_disjoint_from_the_benchmark_worlds():
 
 
 def test_names_and_asset_mixes():
-    assert distribution_names() == [f"random:{k}" for k in (*ASSET_TYPES, "mixed")]
+    assert distribution_names() == [f"random:{k}" for k in (*ASSET_TYPES, "mixed", "wide")]
     assert is_distribution("random:trees") and not is_distribution("pp1-trees")
     assert WorldDistribution("trees").spec(3).assets.mix == {"trees": 1.0}
     assert set(WorldDistribution("mixed").spec(0).assets.mix) == set(ASSET_TYPES)
     mixed = WorldDistribution("mixed", POOL).world(0)
     assert len(set(mixed.layout.kind.tolist())) == len(ASSET_TYPES)
+
+
+def test_the_wide_pool_draws_its_numbers_per_world_and_its_worlds_have_names():
+    wide = WorldDistribution("wide", WIDE_POOL_SIZE)
+    specs = [wide.spec(k) for k in range(WIDE_POOL_SIZE)]
+    assert WIDE_POOL_SIZE >= 256 and len({s.digest() for s in specs}) == WIDE_POOL_SIZE
+    assert len({s.placement.n_assets for s in specs}) > 50  # density varies world to world
+    assert len({tuple(s.assets.mix) for s in specs}) == 15  # every type and mix of types
+    assert load_spec("random:wide/7") == specs[7] and specs[7].name == "random-wide-0007"
+    heldout = load_spec("random:wide/heldout-7")
+    assert heldout.name == "random-wide-heldout-0007" and heldout.digest() != specs[7].digest()
+    assert load_spec("random:mixed/3") == WorldDistribution("mixed").spec(3)
+    assert not is_distribution("random:wide/3") and is_distribution("random:wide")
+
+
+def test_a_pool_world_runs_by_name_on_the_agents_goal_grid():
+    """A world of random:wide with a window smaller than 60 m keeps the 60 × 60 goals a
+    trained agent acts on (larger windows would grow them: the recipe stays within 60 m)."""
+    spec = load_spec("random:wide/26")
+    assert spec.placement.window_m[2] - spec.placement.window_m[0] < 60
+    env = ExploreEnv(world="random:wide/26", max_steps=2)
+    _, info = env.reset(seed=0)
+    assert info["world"] == spec.name and env.sim.n_goals == 60 * 60
+
+
+def test_bad_pool_world_names_are_refused_in_one_line():
+    with pytest.raises(UnknownNameError, match="Did you mean 'random:wide'"):
+        load_spec("random:wdie/3")
+    with pytest.raises(ConfigError, match="the index must be below 100000"):
+        load_spec("random:wide/heldout-100000")
+    with pytest.raises(UnknownNameError, match="Unknown world 'random:wide/x3'"):
+        load_spec("random:wide/x3")
+    with pytest.raises(ConfigError, match="world_pool_size: must be from 1 to 100000"):
+        WorldDistribution("wide", 100_001)
 
 
 def test_unknown_distribution_suggests_the_near_miss():

@@ -20,12 +20,14 @@ the end test, so it marks exactly the voxels it marked before.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
-from numba.cpython.unsafe.numbers import trailing_zeros
+from numba.cpython.unsafe.numbers import trailing_zeros as _trailing_zeros
 from numba.extending import intrinsic
 
 from nbv_gym.mapping.store import BLOCK, is_known, stored
@@ -45,8 +47,7 @@ _WORDS = BLOCK // _WORD
 _LINE = 16
 
 
-@intrinsic
-def _prefetch(typingctx, array, index):
+def _prefetch_intrinsic(typingctx, array, index):
     """Ask the CPU to fetch ``array[index]``'s cache line for writing (LLVM's ``prefetch``):
     no effect on any value, only on when the line arrives."""
     signature = types.void(array, index)
@@ -64,6 +65,12 @@ def _prefetch(typingctx, array, index):
         return context.get_dummy_value()
 
     return signature, codegen
+
+
+#: The intrinsics as the kernels call them: ``_prefetch(array, index)``, ``trailing_zeros(word)``
+#: (numba's: the index of the lowest set bit).
+_prefetch = cast(Callable[[np.ndarray, int], None], intrinsic(_prefetch_intrinsic))
+trailing_zeros = cast(Callable[[np.uint64], int], _trailing_zeros)
 
 
 class MarkingWindow:

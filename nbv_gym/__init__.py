@@ -20,29 +20,14 @@ try:  # the version is stated once, in pyproject.toml
 except PackageNotFoundError:  # a source tree on sys.path without an install
     __version__ = "0+unknown"
 
-from nbv_gym.core.protocol import (
-    BUDGET_ID,
-    BUDGET_SCANS,
-    EXPLORE_ID,
-    EXPLORE_MAX_STEPS,
-    TIME_BUDGET_S,
-    TIME_ID,
-    EffortModel,
-)
+from nbv_gym.core.protocol import EXPLORE_ID, TASK_IDS
 
 ENV_ID = EXPLORE_ID
 
-for _id, _kwargs, _limit in (
-    (EXPLORE_ID, {}, EXPLORE_MAX_STEPS),
-    (BUDGET_ID, {"task": "budget"}, BUDGET_SCANS),
-    # the scan cap of the default budget, which never binds (a larger budget needs a larger
-    # max_episode_steps through gymnasium.make)
-    (TIME_ID, {"task": "time"}, EffortModel().scan_cap(TIME_BUDGET_S)),
-):
+# No id sets max_episode_steps: each task has one truncation, the environment's own (max_steps,
+# the budget of scans, the time budget), and its info's end_reason says which ended an episode.
+for _task, _id in TASK_IDS.items():
     if _id not in gymnasium.registry:
         gymnasium.register(
-            id=_id,
-            entry_point="nbv_gym.env.explore:ExploreEnv",
-            kwargs=_kwargs,
-            max_episode_steps=_limit,
+            id=_id, entry_point="nbv_gym.env.explore:task_env", kwargs={"id_task": _task}
         )

@@ -252,7 +252,7 @@ class Exploration:
         scan = self.lidar.scan(robot.pose, robot.rng)
         state = self._live
         update = state.apply(scan, robot_xy=robot.xy)
-        state.navigation.limit_reach(self.config.episode.effort.reach_m(remaining_s))
+        state.navigation.limit_reach(self.config.episode.budget.reach_m(remaining_s))
         before = self.summary
         self.summary = self._update_quality(update.touched_cells)
         return scan, update.touched, self.summary.q - before.q
@@ -262,7 +262,7 @@ class Exploration:
         (k,) goals ``excluded`` not valid (e.g. teammates' goals)."""
         navigation = self._live.navigation
         navigation.plan(robot.xy)
-        navigation.limit_reach(self.config.episode.effort.reach_m(remaining_s))
+        navigation.limit_reach(self.config.episode.budget.reach_m(remaining_s))
         navigation.exclude_goals(excluded)
 
     def pose_at(self, goal: int, origin: Pose) -> Pose:
@@ -278,8 +278,9 @@ class Exploration:
         scan's included, sum to its area under Q(t) over the budget), minus the path
         penalty."""
         episode = self.config.episode
-        held = 1.0 if episode.time_budget_s is None else remaining_s / episode.time_budget_s
-        return delta_q * held - episode.path_penalty_per_m * path_length_m
+        return (
+            delta_q * episode.budget.held(remaining_s) - episode.path_penalty_per_m * path_length_m
+        )
 
     def _update_quality(self, touched: np.ndarray) -> QualitySummary:
         state = self._live
@@ -298,7 +299,7 @@ class Exploration:
         if robot.steps >= episode.max_steps:
             return False, True, f"reached max_steps = {episode.max_steps}"
         if not self._live.navigation.goal_mask().any():
-            if remaining_s < math.inf and self._time_bound():
+            if self.config.episode.budget.limited and self._time_bound():
                 return False, True, self._spent(robot, remaining_s)
             return False, True, "no valid goal is reachable"
         return False, False, ""
@@ -349,7 +350,7 @@ class Exploration:
         path_m = navigation.goal_path_length()[goal]
         if not np.isfinite(path_m):
             return "it is not known free space reachable from the robot"
-        if path_m > navigation.reach_m:
+        if not self.config.episode.budget.fits(path_m, remaining_s):
             cost = self.config.episode.effort.elapsed_s(path_m, 1)
             return f"driving there and scanning takes {cost:.1f} s, {remaining_s:.1f} s are left"
         return "it is not a valid goal"
@@ -417,8 +418,7 @@ class Simulator(Exploration):
     @property
     def remaining_s(self) -> float:
         """Seconds left of the episode's time budget (inf without one)."""
-        episode = self.config.episode
-        return self.robot.remaining_s(episode.effort, episode.time_budget_s)
+        return self.robot.remaining_s(self.config.episode.budget)
 
     def reset(self, seed: int | None = None) -> StepOutcome:
         """Start an episode at the start pose and take the first scan; randomness from ``seed``.

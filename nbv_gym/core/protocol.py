@@ -26,7 +26,7 @@ This module imports nothing heavy: ``import nbv_gym`` reads it to register the i
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -123,10 +123,9 @@ class EffortModel:
         first)."""
         return path_m / self.speed_mps + scans * self.scan_time_s
 
-    def reach_m(self, remaining_s: float) -> float:
-        """The longest path, metres, whose drive and scan fit in ``remaining_s`` seconds
-        (negative when not even a scan fits)."""
-        return (remaining_s - self.scan_time_s) * self.speed_mps
+    def drive_m(self, seconds: float) -> float:
+        """Metres driven in ``seconds`` (the one conversion of time to path: reach included)."""
+        return seconds * self.speed_mps
 
     def scan_cap(self, time_budget_s: float) -> int:
         """A number of scans no episode of ``time_budget_s`` can reach (each goal costs more
@@ -134,6 +133,59 @@ class EffortModel:
         never binds."""
         per_scan = max(self.scan_time_s, 1.0 / self.speed_mps)  # every goal is ≥ 1 m away
         return max(1, math.ceil(time_budget_s / per_scan) + 1)
+
+
+@dataclass(frozen=True)
+class TimeBudget:
+    """A robot's budget of time under an effort model: the one place that knows whether there
+    is a budget and what is left of it.
+
+    Args:
+        seconds: the time task's budget, s (in :data:`EFFORT_RANGES`: 1 to 86,400); None in the
+            other tasks: nothing runs out, every drive fits and the reach is unlimited (inf).
+        effort: the effort model that charges the robot's time.
+    """
+
+    seconds: float | None = None
+    effort: EffortModel = field(default_factory=EffortModel)
+
+    def __post_init__(self) -> None:
+        if self.seconds is not None:
+            check_effort("time_budget_s", self.seconds)
+
+    @property
+    def limited(self) -> bool:
+        """Whether there is a budget (the time task)."""
+        return self.seconds is not None
+
+    def remaining_s(self, elapsed_s: Any) -> Any:
+        """Seconds left after ``elapsed_s`` (a float or an array of them; inf without a budget,
+        negative once overrun)."""
+        return math.inf if self.seconds is None else self.seconds - elapsed_s
+
+    def reach_m(self, remaining_s: float) -> float:
+        """The longest path, metres, whose drive and a scan fit in ``remaining_s`` seconds
+        (inf without a budget; negative when not even a scan fits)."""
+        return self.effort.drive_m(remaining_s - self.effort.scan_time_s)
+
+    def fits(self, path_m: float, remaining_s: float) -> bool:
+        """Whether a drive of ``path_m`` metres and a scan fit in ``remaining_s`` seconds."""
+        return bool(path_m <= self.reach_m(remaining_s))
+
+    def bound_m(self) -> float:
+        """A path no valid goal's exceeds: the whole budget driven without a scan, metres (inf
+        without a budget)."""
+        return math.inf if self.seconds is None else self.effort.drive_m(self.seconds)
+
+    def held(self, remaining_s: Any) -> Any:
+        """The share of the budget ``remaining_s`` is (a float or an array; 1 without a budget):
+        how long a gain is held, the weight of the time task's reward."""
+        return 1.0 if self.seconds is None else remaining_s / self.seconds
+
+    def share(self, seconds: float) -> float:
+        """``seconds`` over the budget, at most 1 (a clock's progress; over 1 s without a
+        budget)."""
+        return min(seconds / (self.seconds or 1.0), 1.0)
 
 
 @dataclass(frozen=True)
@@ -167,14 +219,17 @@ class EpisodeConfig:
             "must be in (0, 1], or None for no termination",
         )
         check(self.path_penalty_per_m >= 0, "path_penalty_per_m", "must be ≥ 0")
-        if self.time_budget_s is not None:
-            check_effort("time_budget_s", self.time_budget_s)
-        EffortModel(self.speed_mps, self.scan_time_s)  # checks both
+        TimeBudget(self.time_budget_s, EffortModel(self.speed_mps, self.scan_time_s))  # checks
 
     @cached_property
     def effort(self) -> EffortModel:
         """The effort model of ``speed_mps`` and ``scan_time_s`` (built once)."""
         return EffortModel(self.speed_mps, self.scan_time_s)
+
+    @cached_property
+    def budget(self) -> TimeBudget:
+        """The time budget of ``time_budget_s`` under :attr:`effort` (built once)."""
+        return TimeBudget(self.time_budget_s, self.effort)
 
 
 def task_episode(

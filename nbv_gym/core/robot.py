@@ -5,12 +5,10 @@ noise. The world, the map, the statistics and the map quality are the team's
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from nbv_gym.core.pose import Pose
-from nbv_gym.core.protocol import EffortModel
+from nbv_gym.core.protocol import EffortModel, TimeBudget
 
 
 class Robot:
@@ -49,9 +47,9 @@ class Robot:
         first under ``effort``."""
         return effort.elapsed_s(self.path_length_m, self.steps)
 
-    def remaining_s(self, effort: EffortModel, time_budget_s: float | None) -> float:
-        """Seconds of ``time_budget_s`` left on the robot's clock (inf without a budget)."""
-        return math.inf if time_budget_s is None else time_budget_s - self.elapsed_s(effort)
+    def remaining_s(self, budget: TimeBudget) -> float:
+        """Seconds of ``budget`` left on the robot's clock (inf without a budget)."""
+        return budget.remaining_s(self.elapsed_s(budget.effort))
 
     @property
     def xy(self) -> np.ndarray:

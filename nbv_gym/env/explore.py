@@ -27,7 +27,7 @@ from gymnasium import spaces
 
 from nbv_gym.core.config import check, from_dict, merge, to_dict
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.protocol import EpisodeConfig, task_episode
+from nbv_gym.core.protocol import TASK_IDS, EpisodeConfig, check_task, task_episode
 from nbv_gym.env import observation
 from nbv_gym.env.actions import INVALID_ACTIONS, resolve_goal
 from nbv_gym.env.layers import OPTIONAL_LAYERS, OptionalLayers
@@ -132,9 +132,9 @@ class ExploreEnv(gymnasium.Env):
             speed and scan time charge time in every task; a budget is the time task's).
         world, noise, max_steps, observation_layers, invalid_action, world_pool_size, episodes_per_world: shortcuts overriding the config's ``simulator.world``,
             ``simulator.noise``, ``simulator.episode.max_steps``, ``observation_layers``,
-            ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. Through
-            ``gymnasium.make`` the spec's ``max_episode_steps`` truncates too: change both to
-            change the budget.
+            ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. The registered
+            ids set no ``max_episode_steps``: ``max_steps`` (and the time budget) is the one
+            truncation.
         lidar: a lidar preset name (:mod:`nbv_gym.sensor.presets`, e.g. ``"vlp-16"``) whose
             beam pattern (channels, elevations, azimuth samples) replaces the config's.
     """
@@ -187,8 +187,7 @@ class ExploreEnv(gymnasium.Env):
             mapping.sensor_range_m,
             mapping.statistics.n_sectors,
             episode.max_steps,
-            episode.time_budget_s,
-            episode.speed_mps,
+            episode.budget,
         )
         self.action_space = GoalSpace(self.sim.n_goals)
         self.action_space.bind(self._current_mask)
@@ -316,7 +315,7 @@ class ExploreEnv(gymnasium.Env):
     def _clock(self) -> dict[str, float]:
         """The time task's ``elapsed_s`` and ``remaining_s`` (none in the other tasks, whose
         ``info`` stays as pinned; their elapsed time is the steps table's)."""
-        if self.config.simulator.episode.time_budget_s is None:
+        if not self.config.simulator.episode.budget.limited:
             return {}
         return {"elapsed_s": self.sim.elapsed_s, "remaining_s": self.sim.remaining_s}
 
@@ -364,6 +363,22 @@ def resolve_config(
     if max_steps is not None:
         episode = replace(episode, max_steps=max_steps)
     return replace(resolved, simulator=replace(resolved.simulator, episode=episode))
+
+
+def task_env(id_task: str, task: str | None = None, **kwargs: Any) -> ExploreEnv:
+    """The environment of ``id_task``'s registered id (``gymnasium.make`` calls it with the
+    user's keywords, :class:`ExploreEnv`'s): a ``task`` other than the id's is refused, naming
+    the id to make instead."""
+    if task is not None and task != id_task:
+        check_task(task)
+        raise ConfigError(
+            f"task: {TASK_IDS[id_task]} is the {id_task} task, got task={task!r}; make "
+            f"{TASK_IDS[task]} instead"
+        )
+    return ExploreEnv(task=id_task, **kwargs)
+
+
+task_env.metadata = ExploreEnv.metadata  # type: ignore[attr-defined]  # read by gymnasium.make
 
 
 def _given(values: Mapping[str, Any]) -> dict[str, Any]:

@@ -42,6 +42,7 @@ from gymnasium import spaces
 from nbv_gym.core import libm
 from nbv_gym.core.grid import GridSpec
 from nbv_gym.core.pose import Pose
+from nbv_gym.core.protocol import TimeBudget
 from nbv_gym.mapping import NavigationLayer, ViewpointStatistics
 
 BASE_LAYERS = ("known", "free", "occupied", "frontier", "valid", "cost", "distance", "robot",
@@ -73,9 +74,8 @@ class Observer:
         sensor_range_m: the sensor range that scales ``r_min``, metres.
         n_sectors: the azimuth sectors that scale ``n_omega``.
         max_steps: the step limit that scales the state's progress.
-        time_budget_s: the time task's budget, s (None in the other tasks): the ``cost`` layer
-            is then not clipped at 1 and the progress is elapsed time / the budget.
-        speed_mps: the effort model's driving speed, m/s (read with ``time_budget_s``).
+        budget: the episode's time budget (none but in the time task; with one the ``cost``
+            layer is not clipped at 1 and the progress is elapsed time / the budget).
     """
 
     def __init__(
@@ -84,18 +84,14 @@ class Observer:
         sensor_range_m: float,
         n_sectors: int,
         max_steps: int,
-        time_budget_s: float | None = None,
-        speed_mps: float = 1.0,
+        budget: TimeBudget | None = None,
     ):
         self.shape = goal_grid.shape[:2]
         self.n_goals = self.shape[0] * self.shape[1]
         self.sensor_range_m = float(sensor_range_m)
         self.n_sectors = int(n_sectors)
         self.max_steps = int(max_steps)
-        self.time_budget_s = time_budget_s
-        #: a path no valid goal's exceeds in the time task, metres: the whole budget driven
-        #: (None: no time budget); it bounds the ``cost`` layer
-        self.reach_m = None if time_budget_s is None else time_budget_s * speed_mps
+        self.budget = budget or TimeBudget()
         self._centres = goal_grid.xy_centres().T.copy()  # (2, n_goals): x row, y row
         self._diagonal = float(np.hypot(*(goal_grid.high[:2] - goal_grid.low[:2])))  # no BLAS
         self._half = goal_grid.high[:2]
@@ -103,7 +99,9 @@ class Observer:
 
     def cost_high(self, cost_range_m: float) -> float:
         """The ``cost`` layer's upper bound with the navigation's ``cost_range_m``."""
-        return 1.0 if self.reach_m is None else max(1.0, self.reach_m / cost_range_m)
+        if not self.budget.limited:
+            return 1.0
+        return max(1.0, self.budget.bound_m() / cost_range_m)  # no valid goal's path is longer
 
     def observe(
         self,
@@ -130,8 +128,8 @@ class Observer:
         self, pose: Pose, discovered: float, steps: int, elapsed_s: float = 0.0
     ) -> np.ndarray:
         """(6,) float32 robot state (see the module docstring)."""
-        budget = self.time_budget_s
-        progress = steps / self.max_steps if budget is None else min(elapsed_s / budget, 1.0)
+        budget = self.budget
+        progress = budget.share(elapsed_s) if budget.limited else steps / self.max_steps
         return np.array(
             [pose.x / self._half[0], pose.y / self._half[1], math.cos(pose.yaw), math.sin(pose.yaw),
              discovered, progress],
@@ -143,7 +141,7 @@ class Observer:
             out[name][:] = fractions.ravel()
         out["frontier"][:] = nav.frontier_goal_mask()
         out["valid"][:] = nav.goal_mask()
-        out["cost"][:] = nav.goal_cost(clipped=self.reach_m is None)  # the time task's: not
+        out["cost"][:] = nav.goal_cost(clipped=not self.budget.limited)  # the time task's: not
         x, y = self._centres
         out["distance"][:] = np.hypot(x - pose.x, y - pose.y) / self._diagonal
         out["robot"][:] = 0.0

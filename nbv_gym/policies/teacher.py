@@ -130,8 +130,6 @@ def step_rewards(
     episode, navigation = sim.config.episode, sim.navigation
     path = navigation.goal_path_length()[goals].astype(np.float64)
     cost = np.asarray(episode.effort.elapsed_s(path, 1), np.float64)
-    held = 1.0
-    if episode.time_budget_s is not None:
-        spent = episode.effort.elapsed_s(sim.path_length_m + path, sim.steps + 1)
-        held = (episode.time_budget_s - spent) / episode.time_budget_s
+    spent = episode.effort.elapsed_s(sim.path_length_m + path, sim.steps + 1)
+    held = episode.budget.held(episode.budget.remaining_s(spent))
     return delta_q * held - episode.path_penalty_per_m * path, cost

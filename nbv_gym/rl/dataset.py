@@ -75,7 +75,7 @@ def record_dataset(
     agent = load_policy(policy)
     env = gymnasium.make(
         TASK_IDS[task], world=world, noise=noise, max_steps=max_steps,
-        max_episode_steps=max_steps, observation_layers=tuple(required_layers(agent)),
+        observation_layers=tuple(required_layers(agent)),
         **(effort or {}),
         lidar=lidar,
     )  # fmt: skip

@@ -98,8 +98,7 @@ class TeamEnv(ParallelEnv):
             mapping.sensor_range_m,
             mapping.statistics.n_sectors,
             episode.max_steps,
-            episode.time_budget_s,
-            episode.speed_mps,
+            episode.budget,
         )
         self._observation_space = _observation_space(self, mapping.navigation.cost_range_m)
         self._action_spaces = {name: GoalSpace(self.carry_on + 1) for name in self.possible_agents}
@@ -156,8 +155,10 @@ class TeamEnv(ParallelEnv):
             raise ResetNeededError("Call reset() before state().")
         latest = self._layers[self.sim.deciding if not self.sim.ended else 0]
         rows = [self._row(k) for k in range(len(self.possible_agents))]
-        budget = self.sim.time_budget_s or 1.0
-        tail = [self.sim.shared.navigation.discovered_fraction, min(self.sim.time_s / budget, 1.0)]
+        tail = [
+            self.sim.shared.navigation.discovered_fraction,
+            self.sim.budget.share(self.sim.time_s),
+        ]
         parts = [latest[name] for name in STATE_LAYERS]
         parts += [np.ravel(np.array(rows, np.float32)), np.array(tail, np.float32)]
         return np.concatenate(parts).astype(np.float32)
@@ -233,9 +234,8 @@ class TeamEnv(ParallelEnv):
         goal = robot.pose if pending is None else pending[0]
         half = sim.shared.goal_grid.high[:2]
         left = 0.0 if pending is None else float(sim.ready_s[index] - sim.time_s)
-        budget = sim.time_budget_s or 1.0
         return [robot.pose.x / half[0], robot.pose.y / half[1], goal.x / half[0],
-                goal.y / half[1], min(left / budget, 1.0), float(not sim.stopped[index])]  # fmt: skip
+                goal.y / half[1], sim.budget.share(left), float(not sim.stopped[index])]  # fmt: skip
 
     def _observations(self, agents: list[str]) -> dict[str, dict[str, np.ndarray]]:
         rows = np.array([self._row(k) for k in range(len(self.possible_agents))], np.float32)

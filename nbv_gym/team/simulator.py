@@ -31,6 +31,7 @@ import numpy as np
 from nbv_gym.core import libm
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.pose import Pose
+from nbv_gym.core.protocol import TimeBudget
 from nbv_gym.core.robot import Robot
 from nbv_gym.simulator import (
     Exploration,
@@ -108,7 +109,12 @@ class TeamSimulator:
     @property
     def time_budget_s(self) -> float | None:
         """The team's time budget, s (None: none)."""
-        return self.shared.config.episode.time_budget_s
+        return self.budget.seconds
+
+    @property
+    def budget(self) -> TimeBudget:
+        """The team's time budget (every robot's clock runs against it)."""
+        return self.shared.config.episode.budget
 
     @property
     def ended(self) -> bool:
@@ -122,7 +128,7 @@ class TeamSimulator:
 
     def remaining_s(self, robot: int) -> float:
         """Seconds of the budget left on ``robot``'s clock (inf without a budget)."""
-        return self.robots[robot].remaining_s(self.effort, self.time_budget_s)
+        return self.robots[robot].remaining_s(self.budget)
 
     def reset(self, seed: int | None = None) -> None:
         """Start an episode: the map cleared, every robot at its start with its generator

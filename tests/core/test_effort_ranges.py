@@ -11,7 +11,13 @@ import pytest
 
 from nbv_gym.core.config import from_dict
 from nbv_gym.core.errors import ConfigError
-from nbv_gym.core.protocol import EFFORT_RANGES, EffortModel, EpisodeConfig, task_episode
+from nbv_gym.core.protocol import (
+    EFFORT_RANGES,
+    EffortModel,
+    EpisodeConfig,
+    TimeBudget,
+    task_episode,
+)
 
 #: Every config an effort value enters by, with how it is given there.
 ENTRIES = {
@@ -79,7 +85,9 @@ def test_at_the_corners_of_the_ranges_the_clock_stays_finite(speed, scan, budget
     effort = EffortModel(speed, scan)
     cap = effort.scan_cap(budget)
     assert 1 <= cap <= budget * EFFORT_RANGES["speed_mps"][1] + 1
-    assert math.isfinite(effort.elapsed_s(1000.0, cap)) and math.isfinite(effort.reach_m(budget))
+    assert math.isfinite(effort.elapsed_s(1000.0, cap)) and math.isfinite(
+        TimeBudget(budget, effort).reach_m(budget)
+    )
     episode = task_episode("time", EpisodeConfig(speed_mps=speed, scan_time_s=scan), None, budget)
     assert episode.max_steps == cap
 

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from nbv_gym.core.pose import Pose
-from nbv_gym.core.protocol import EffortModel
+from nbv_gym.core.protocol import EffortModel, TimeBudget
 from nbv_gym.core.robot import Robot
 
 START = Pose(1.0, -2.0, 0.0, 0.5)
@@ -21,8 +21,8 @@ def test_the_clock_is_the_path_and_the_scans_after_the_first_under_the_effort_mo
     robot.move(Pose(2.0, -2.0, 0.0), 1.0)
     robot.move(Pose(2.0, 0.0, 0.0), 2.0)
     assert robot.elapsed_s(effort) == pytest.approx(3.0 / 0.5 + 2 * 4.0)
-    assert robot.remaining_s(effort, 30.0) == pytest.approx(30.0 - 14.0)
-    assert robot.remaining_s(effort, None) == math.inf
+    assert robot.remaining_s(TimeBudget(30.0, effort)) == pytest.approx(30.0 - 14.0)
+    assert robot.remaining_s(TimeBudget(None, effort)) == math.inf
     assert robot.trajectory == [START, Pose(2.0, -2.0, 0.0), Pose(2.0, 0.0, 0.0)]
     assert list(robot.xy) == [2.0, 0.0]
 

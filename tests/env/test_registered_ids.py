@@ -1,15 +1,19 @@
 """Every environment id that ``import nbv_gym`` registers, checked the same way (as Minigrid's
 ``tests/test_envs.py`` does): Gymnasium's and stable-baselines3's environment checkers pass
-without a warning, and ``max_episode_steps`` is the environment's own step limit."""
+without a warning, no id sets ``max_episode_steps`` (the environment's own limit is the one
+truncation) and a user's ``max_episode_steps`` works as Gymnasium documents."""
 
 from __future__ import annotations
 
 import warnings
 
 import gymnasium
+import numpy as np
 import pytest
+from gymnasium.wrappers import TimeLimit
 
 import nbv_gym  # noqa: F401  (registers the environments)
+from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.protocol import (
     BUDGET_SCANS,
     EXPLORE_MAX_STEPS,
@@ -29,10 +33,10 @@ def test_the_registry_holds_every_task_id():
 
 
 @pytest.mark.parametrize("env_id", ALL_IDS)
-def test_max_episode_steps_is_the_envs_own_limit(env_id):
+def test_the_envs_own_limit_is_the_only_truncation(env_id):
     env = gymnasium.make(env_id, world=WORLD)
     own = env.unwrapped.config.simulator.episode.max_steps
-    assert env.spec.max_episode_steps == own
+    assert env.spec.max_episode_steps is None and not _time_limited(env)
     expected = {
         TASK_IDS["explore"]: EXPLORE_MAX_STEPS,
         TASK_IDS["budget"]: BUDGET_SCANS,
@@ -40,6 +44,38 @@ def test_max_episode_steps_is_the_envs_own_limit(env_id):
     }
     assert own == expected[env_id]
     env.close()
+
+
+def _time_limited(env) -> bool:
+    while isinstance(env, gymnasium.Wrapper):
+        if isinstance(env, TimeLimit):
+            return True
+        env = env.env
+    return False
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_a_users_max_episode_steps_truncates_as_gymnasium_documents(env_id):
+    env = gymnasium.make(env_id, world=WORLD, max_episode_steps=2)
+    assert env.spec.max_episode_steps == 2 and _time_limited(env)
+    _, info = env.reset(seed=0)
+    for step in range(2):
+        goal = int(np.flatnonzero(info["action_mask"])[0])
+        _, _, terminated, truncated, info = env.step(goal)
+        assert truncated == (step == 1) and not terminated
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_an_id_refuses_another_task(env_id):
+    other = next(task for task, id_ in TASK_IDS.items() if id_ != env_id)
+    with pytest.raises(ConfigError, match=f"task: {env_id} is the .* task.*{TASK_IDS[other]}"):
+        gymnasium.make(env_id, world=WORLD, task=other)
+    assert gymnasium.make(env_id, world=WORLD, task=_task_of(env_id)).spec.id == env_id
+
+
+def _task_of(env_id: str) -> str:
+    return next(task for task, id_ in TASK_IDS.items() if id_ == env_id)
 
 
 @pytest.mark.parametrize("config", [None, NOISE_FREE], ids=["defaults", "noise-free"])

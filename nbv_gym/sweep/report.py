@@ -191,8 +191,9 @@ def run_aucs(runs, steps, target: float) -> np.ndarray:
 
 
 def _time_section(ok, data: Results, out: Path) -> str:
-    """Q against the robot's time for a time-task sweep; "" for the other tasks."""
-    if data.time_budget_s is None:
+    """Q against the robot's time for a time-task sweep; "" for the other tasks (and for a
+    folder whose steps table records no ``elapsed_s``)."""
+    if data.time_budget_s is None or "elapsed_s" not in data.steps.columns:
         return ""
     return time_section(ok, data.steps, data.policies, out, data.time_budget_s)
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from nbv_gym.benchmark.curves import area_under, q_at
+from nbv_gym.metrics.effort import area_under, q_at
 
 BUDGETS_S = (120, 240, 360, 480, 600, 900, 1200)
 

@@ -170,8 +170,9 @@ def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
     budget (None in the other tasks)."""
     import numpy as np
 
-    from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S, area_under, grid_curve
+    from nbv_gym.benchmark.curves import PATH_GRID_M, TIME_GRID_S, grid_curve
     from nbv_gym.core.protocol import DISCOVERED_TARGET
+    from nbv_gym.metrics.effort import area_under
     from nbv_gym.reporting.inference import q_curve
 
     run, steps = record["run"], record["steps"]

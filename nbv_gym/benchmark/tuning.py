@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from nbv_gym.benchmark.curves import area_under
 from nbv_gym.core.config import check
 from nbv_gym.core.errors import UnknownNameError
 from nbv_gym.core.protocol import TIME_BUDGET_S, check_effort, check_noise_level
+from nbv_gym.metrics.effort import area_under
 
 #: Values per tuned parameter: every policy is tuned on this many values.
 GRID_SIZE = 5

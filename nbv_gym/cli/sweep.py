@@ -139,7 +139,9 @@ def report(
     mean with min-max band), Fig. 1 (mean cov and L1 against each viewpoint statistic per asset
     type) and Table II (share of one-sided Mann-Whitney tests with p < 0.05, on the
     random-frontier and random-free runs), plus final Q and the area under the Q-vs-discovered
-    curve per policy with bootstrap confidence intervals and paired comparisons.
+    curve per policy with bootstrap confidence intervals and paired comparisons; Q against
+    scans and path length, and for a time-task sweep Q(t): Q against the robot's elapsed time
+    over the budget (q_vs_time.png).
 
     Examples:
 

@@ -28,7 +28,7 @@ from nbv_gym.reporting.inference import (
     Interval,
     q_auc,
 )
-from nbv_gym.sweep.effort import effort_section
+from nbv_gym.sweep.effort import equal_scans_section, time_section
 from nbv_gym.sweep.figures import (
     STATISTIC_LABELS,
     plot_fig1,
@@ -62,6 +62,8 @@ class Results:
     policies: list[str]
     #: Runs the folder's sweep.toml lists (None without one).
     expected: int | None = None
+    #: The time task's budget (s) when sweep.toml sets ``task = "time"``, else None.
+    time_budget_s: float | None = None
 
     @property
     def missing(self) -> int:
@@ -92,7 +94,8 @@ def build_report(results: str | Path, out: str | Path | None = None, seed: int =
         sections += [
             _fig2_section(ok, data, out),
             _final_section(ok, data, rng, out),
-            effort_section(ok, data.steps, data.policies, out),
+            equal_scans_section(ok, data.steps, data.policies, out),
+            _time_section(ok, data, out),
             _indicator_section(ok, data, out),
             _verdict_section(ok, data, out, rng),
         ]
@@ -132,7 +135,8 @@ def load_results(results: Path) -> Results:
     present = list(dict.fromkeys(runs["policy"]))
     policies = [p for p in (*order, *PAPER_POLICIES, *present) if p in present]
     policies = sorted(dict.fromkeys(policies), key=is_oracle_label)  # oracles last, stable
-    return Results(runs, steps, results / "cuboids.parquet", target, policies, expected)
+    budget = _time_budget(results / "sweep.toml")
+    return Results(runs, steps, results / "cuboids.parquet", target, policies, expected, budget)
 
 
 def oracle_labels(runs) -> dict[str, str]:
@@ -160,6 +164,18 @@ def _config_facts(path: Path) -> tuple[float, list[str], int | None]:
     return float(episode.get("discovered_target", target)), list(data.get("policies", [])), expected
 
 
+def _time_budget(path: Path) -> float | None:
+    """The time budget (s) of the folder's sweep.toml when its task is the time task, else
+    None (no sweep.toml: None)."""
+    from nbv_gym.core.config import read_toml
+    from nbv_gym.core.protocol import TIME_BUDGET_S
+
+    if not path.exists():
+        return None
+    data = read_toml(path, "sweep.toml")
+    return float(data.get("time_budget_s", TIME_BUDGET_S)) if data.get("task") == "time" else None
+
+
 def run_aucs(runs, steps, target: float) -> np.ndarray:
     """(n,) area under each run's Q-vs-discovered curve (:func:`~nbv_gym.reporting.inference.q_auc`)."""
     groups = {key: group for key, group in steps.groupby("key", sort=False)}
@@ -172,6 +188,14 @@ def run_aucs(runs, steps, target: float) -> np.ndarray:
         group = group.sort_values("step")
         aucs.append(q_auc(group["discovered"].to_numpy(), group["q"].to_numpy(), target))
     return np.asarray(aucs, float)
+
+
+def _time_section(ok, data: Results, out: Path) -> str:
+    """Q against the robot's time for a time-task sweep; "" for the other tasks (and for a
+    folder whose steps table records no ``elapsed_s``)."""
+    if data.time_budget_s is None or "elapsed_s" not in data.steps.columns:
+        return ""
+    return time_section(ok, data.steps, data.policies, out, data.time_budget_s)
 
 
 # -- header and failures ---------------------------------------------------------------------------

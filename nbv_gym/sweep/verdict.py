@@ -40,7 +40,8 @@ Claims and rules (α = 0.05):
   small; not otherwise (negative advantages that grow are *not*).
 - **Budget protocol** (not a claim of the paper: its claim at equal scans, travel free): each NBV policy
   against each baseline on Q after 5 and 12 scans, over every noise level, paired and tested
-  like Fig. 2 (its own Holm family), with the same rules.
+  like Fig. 2 (its own Holm family), with the same rules. A run that stopped earlier (the paper's
+  task ends at the discovered target) holds its final Q (:mod:`nbv_gym.metrics.effort`).
 
 The comparisons run once per visibility model the NBV policies fix (``nbv-nobs@fov``), each
 model its own family, so ``nbv-visibility.toml`` gets one Fig. 2 verdict per model.
@@ -70,6 +71,7 @@ from nbv_gym.reporting.verdicts import (
     REPRODUCED,
     inconclusive,
 )
+from nbv_gym.sweep.effort import q_after_scans
 from nbv_gym.worlds import ASSET_TYPES
 
 #: The paper's Table II (simulation, 162 runs): share of tests with p < 0.05. σ_θ's L1 value is
@@ -227,20 +229,6 @@ def paired_at_fractions(runs, steps, column: str = "q_paper"):
     ]  # fmt: skip
     table = np.vstack(values) if values else np.empty((0, len(grid)))  # no runs: no rows
     return pd.DataFrame(table, index=runs.index, columns=list(FRACTIONS))
-
-
-def q_after_scans(runs, steps, scans=SCANS):
-    """Per run: Q after each number of ``scans`` (NaN where the run ended before). A DataFrame
-    indexed like ``runs``, one column per number of scans."""
-    import pandas as pd
-
-    from nbv_gym.sweep.effort import curves_at
-
-    curves = curves_at(steps, "step", "q", np.asarray(scans, float))
-    empty = np.full(len(scans), np.nan)
-    values = [curves.get(k, empty) for k in runs["key"]]
-    table = np.vstack(values) if values else np.empty((0, len(scans)))  # no runs: no rows
-    return pd.DataFrame(table, index=runs.index, columns=list(scans))
 
 
 @dataclass(frozen=True)
@@ -482,7 +470,7 @@ def verdict_table(runs, steps, cuboids, shares, rng: np.random.Generator | None 
         ordering, _ = comparison_rows(group, at, "fig2", rng)
         rows += _tagged(ordering + [harder_row(advantage_units(group, at), rng)], model)
     for model, group in _model_groups(runs):
-        budget, _ = comparison_rows(group, q_after_scans(group, steps), "budget", rng)
+        budget, _ = comparison_rows(group, q_after_scans(group, steps, SCANS), "budget", rng)
         rows += _tagged(budget, model)
     return pd.DataFrame(rows, columns=COLUMNS).astype(object).fillna("—")
 

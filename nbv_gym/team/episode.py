@@ -3,8 +3,9 @@
 Team figures, each over the team's shared time budget T:
 
 - ``q_time_auc``: the area under the team's Q(t) over [0, T], divided by T (Q a step function
-  of the team's clock, the first scans at 0); ``q`` at the end (the budget); ``time_to_q_s``:
-  the team's clock when Q first reached ``q_target`` (None if never).
+  of the team's clock, the first scans at 0: :mod:`nbv_gym.metrics.effort`); ``q`` at the end
+  (the budget); ``time_to_q_s``: the team's clock when Q first reached ``q_target`` (None if
+  never).
 - per robot: scans, path, clock, why it stopped, and its contribution (the ΔQ of its own
   scans); ``longest_path_m``: the longest robot path; ``contribution_spread``: the largest
   minus the smallest robot's share of the summed ΔQ (0: an even split).
@@ -22,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.env.views import agent_view
+from nbv_gym.metrics.effort import area_under
 from nbv_gym.policies import PolicyError
 from nbv_gym.simulator import InvalidActionError
 from nbv_gym.team.env import TeamEnv
@@ -107,20 +109,13 @@ def team_figures(sim: TeamSimulator, robots: list[dict], q_target: float) -> dic
         "discovered": scans[-1].discovered,
         "elapsed_s": float(times.max()),
         "path_length_m": float(sum(r["path_length_m"] for r in robots)),
-        "q_time_auc": _mean_q(times, q, budget),
+        "q_time_auc": area_under(times, q, budget),
         "q_target": q_target,
         "time_to_q_s": float(times[reached[0]]) if len(reached) else None,
         "longest_path_m": float(max(r["path_length_m"] for r in robots)),
         "contribution_spread": float(shares.max() - shares.min()),
         "overlap_rate": float(sim.coverage.sum() / covered - 1.0) if covered else 0.0,
     }
-
-
-def _mean_q(times: np.ndarray, q: np.ndarray, budget: float) -> float:
-    """The area under the step function Q(t) over [0, ``budget``] / ``budget``."""
-    starts = np.minimum(times, budget)
-    stops = np.append(starts[1:], budget)
-    return float(np.sum(q * (stops - starts)) / budget)
 
 
 def _end_reason(sim: TeamSimulator) -> str:

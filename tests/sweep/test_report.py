@@ -155,6 +155,20 @@ def test_report_tables_hold_the_hand_computed_values(results):
         "claim", "paper", "n", "test", "p", "effect", "ours", "verdict", "model",
     ]  # fmt: skip
     assert "Fig. 1: cov rises with n_obs" in set(verdict["claim"])
+    assert "q_vs_time" not in text and not (report / "q_vs_time.png").exists()  # not time task
+
+
+def test_the_report_of_a_time_task_sweep_draws_q_against_the_robots_time(results, make_config):
+    steps = pd.read_csv(results / "steps.csv")
+    steps.assign(elapsed_s=40.0 * steps["step"]).to_csv(results / "steps.csv", index=False)
+    policies = ["random-frontier", "closest-frontier"]
+    make_config(results, "sweep", task="time", time_budget_s=300.0, policies=policies, repeats=2)
+    text = build_report(results).read_text()
+    assert "## Q against the robot's time (time task)" in text and "300 s budget" in text
+    assert "](q_vs_time.png)" in text
+    assert (results / "report" / "q_vs_time.png").stat().st_size > 10_000
+    html = (results / "report" / "report.html").read_text()
+    assert "<h2>Q against the robot's time (time task)" in html
 
 
 def test_report_of_a_folder_without_results_says_what_to_run(tmp_path):

@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from nbv_gym.benchmark.curves import area_under
 from nbv_gym.core.protocol import EffortModel
+from nbv_gym.metrics.effort import area_under
 from nbv_gym.team import TeamEnv, load_team_policy, run_team_episode
 from nbv_gym.team.episode import team_figures
 from nbv_gym.team.simulator import Scanned

@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from nbv_gym.benchmark.curves import TIME_GRID_S, area_under, grid_curve
+from nbv_gym.benchmark.curves import TIME_GRID_S, grid_curve
 from nbv_gym.benchmark.references import REFERENCE_SUITE, reference_path
 from nbv_gym.benchmark.scorecard import load_scorecard
 from nbv_gym.benchmark.suiterun import part_config, write_world_specs
+from nbv_gym.metrics.effort import area_under
 from nbv_gym.team import EachRobot, TeamEnv, run_team_episode
 
 #: Stored runs of closest-frontier on the standard suite: (split, world, noise, repeat).

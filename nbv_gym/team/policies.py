@@ -10,6 +10,10 @@ ship:
   exploration" (IEEE T-RO 2005): the deciding robot takes the frontier goal of highest utility
   minus path cost, a frontier goal's utility (1) discounted near the goals its teammates
   announced, linearly from 1 at the teammate's goal to 0 at the sensor range.
+- :class:`HungarianFrontier` — coordinated by cost assignment, after Faigl et al., "Goal
+  assignment using distance cost in multi-robot exploration" (IROS 2012): the robots that decide
+  at this moment get distinct frontier goals of least summed path cost (the Hungarian method,
+  Kuhn 1955, as ``scipy.optimize.linear_sum_assignment``).
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from nbv_gym.env.views import agent_view
 from nbv_gym.policies import Policy, PolicyError, is_oracle, load_policy, policy_name
@@ -156,12 +161,69 @@ class UtilityFrontier:
         return discount
 
 
+class HungarianFrontier:
+    """Coordinated by cost assignment (module docstring): the robots that decide now
+    (``info["decides_now"]``, each with its fresh ``cost`` and ``valid`` layers) are assigned
+    distinct frontier goals — those valid for the deciding robot, so the teammates' goals stay
+    reserved — minimising the summed path cost; the deciding robot takes its own. A robot
+    left without a frontier goal (fewer than robots, or none it reaches) takes the valid goal of
+    least cost outside the assigned ones. Deterministic and stateless: the robots waiting
+    their turn get the same goals when they decide (the rest of an optimal assignment is
+    optimal for the rest)."""
+
+    team = True
+
+    def reset(self, seed: int | None = None) -> None:
+        """Nothing to reset: the policy is deterministic."""
+
+    def act(
+        self,
+        observations: Mapping[str, Mapping[str, np.ndarray]],
+        infos: Mapping[str, Mapping[str, Any]],
+    ) -> dict[str, int]:
+        """The deciding robot's goal; carry on for the others."""
+        return deciding_robot_acts(infos, lambda a: self._goal(a, observations, infos))
+
+    def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
+        valid = np.asarray(infos[agent]["action_mask"])[:-1].astype(bool)
+        cost = np.asarray(observations[agent]["cost"], float)
+        columns = np.flatnonzero(valid & (np.asarray(observations[agent]["frontier"]) > 0))
+        robots = [a for a, info in infos.items() if a == agent or info.get("decides_now")]
+        assigned = assign_goals(
+            np.array([observations[a]["cost"] for a in robots], float)[:, columns],
+            np.array([observations[a]["valid"] for a in robots], bool)[:, columns],
+        )
+        mine = assigned[robots.index(agent)]
+        if mine >= 0:
+            return int(columns[mine])
+        free = valid.copy()
+        free[columns[assigned[assigned >= 0]]] = False
+        return int(np.argmin(np.where(free if free.any() else valid, cost, np.inf)))
+
+
+def assign_goals(cost: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """(n_robots,) int64: the column (goal) of least summed ``cost`` assigned to each robot (a
+    row), distinct, only where ``valid``; −1 for a robot left without one. ``cost``, ``valid``:
+    (n_robots, n_goals) float64 and bool."""
+    assigned = np.full(cost.shape[0], -1, np.int64)
+    if cost.size == 0:
+        return assigned
+    big = float(cost[valid].sum()) + 1.0 if valid.any() else 1.0  # more than any valid total
+    rows, cols = linear_sum_assignment(np.where(valid, cost, big))
+    keep = valid[rows, cols]
+    assigned[rows[keep]] = cols[keep]
+    return assigned
+
+
 #: Team policies by name; any registered single-robot policy name also runs, as
 #: :meth:`EachRobot.of` (uncoordinated).
-TEAM_POLICIES = {"utility-frontier": UtilityFrontier}
+TEAM_POLICIES: dict[str, type[UtilityFrontier] | type[HungarianFrontier]] = {
+    "utility-frontier": UtilityFrontier,
+    "hungarian-frontier": HungarianFrontier,
+}
 
 
-def load_team_policy(name: str, n_robots: int) -> EachRobot | UtilityFrontier:
+def load_team_policy(name: str, n_robots: int) -> EachRobot | UtilityFrontier | HungarianFrontier:
     """A team policy: a name of :data:`TEAM_POLICIES`, or a single-robot policy's name run
     on every robot (:class:`EachRobot`)."""
     if name in TEAM_POLICIES:

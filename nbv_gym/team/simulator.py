@@ -120,6 +120,11 @@ class TeamSimulator:
         moment, or has stopped)."""
         return robot != self.deciding
 
+    def deciding_now(self) -> list[int]:
+        """The robots that decide at the current time, in index order: the deciding robot and
+        the idle ones waiting their turn at this moment ([] once the episode is over)."""
+        return [] if self.ended else self._idle()
+
     def remaining_s(self, robot: int) -> float:
         """Seconds of the budget left on ``robot``'s clock (inf without a budget)."""
         return self.robots[robot].remaining_s(self.effort, self.time_budget_s)

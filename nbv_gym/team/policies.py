@@ -24,9 +24,10 @@ from typing import Any
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from nbv_gym.core.errors import UnknownNameError
 from nbv_gym.env.views import agent_view
 from nbv_gym.policies import Policy, PolicyError, is_oracle, load_policy, policy_name
-from nbv_gym.policies.registry import required_layers
+from nbv_gym.policies.registry import POLICIES, required_layers
 from nbv_gym.sensor.lidar import SENSOR_RANGE_M
 from nbv_gym.team.simulator import robot_seed
 
@@ -228,4 +229,7 @@ def load_team_policy(name: str, n_robots: int) -> EachRobot | UtilityFrontier | 
     on every robot (:class:`EachRobot`)."""
     if name in TEAM_POLICIES:
         return TEAM_POLICIES[name]()
-    return EachRobot.of(name, n_robots)
+    try:
+        return EachRobot.of(name, n_robots)
+    except UnknownNameError:
+        raise UnknownNameError("team policy", name, [*TEAM_POLICIES, *POLICIES]) from None

@@ -325,8 +325,8 @@ def start_points(shared: Exploration, n_robots: int) -> list[tuple[float, float]
         raise ConfigError(
             f"n_robots: {n_robots} robots, but world {shared.world.name} has {len(points)} free "
             f"start points (one per {cell:g} m goal cell, the robot's {radius:g} m disc inside "
-            f"the {shared.world.clear_radius_m:g} m clear disc around the start); give "
-            "start_xy_m, one (x, y) per robot"
+            f"the {shared.world.clear_radius_m:g} m clear disc around the start); give at most "
+            f"{len(points)} robots, or each robot's start (start_xy_m)"
         )
     return points[:n_robots]
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Annotated
 
@@ -105,7 +106,7 @@ def run(
                  "budget_scans": budget_scans, "max_steps": max_steps,
                  "time_budget_s": time_budget_s, "speed_mps": speed_mps,
                  "scan_time_s": scan_time_s, "lidar": lidar}  # fmt: skip
-        run_team(robots, given, out, animation, force, as_json)
+        run_team(robots, given, out, animation, partial(_check_run_folder, out, force), as_json)
         return
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
     own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -12,13 +13,18 @@ from nbv_gym.core.jsonfiles import dumps_json
 
 
 def run_team(
-    robots: int, given: dict[str, Any], out: Path, animation: bool, force: bool, as_json: bool
+    robots: int,
+    given: dict[str, Any],
+    out: Path,
+    animation: bool,
+    check_folder: Callable[[tuple[str, ...]], tuple[str, ...]],
+    as_json: bool,
 ) -> None:
     """Run ``given["policy"]`` as a team of ``robots`` (a team policy's name, or a single-robot
     policy every robot runs) with ``run``'s other options ``given``; write the run folder
     (:mod:`nbv_gym.team.runfolder`) and report as ``run`` does. The team task is the time task:
-    another --task, --budget-scans or --max-steps is refused."""
-    from nbv_gym.cli.run import _check_run_folder
+    another --task, --budget-scans or --max-steps is refused. ``check_folder(names)``: ``run``'s
+    check that ``out`` can take the files ``names`` (the names to replace)."""
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.core.trajectory import TRAJECTORY_NAME
     from nbv_gym.env.explore import EnvConfig, ExploreEnv
@@ -39,7 +45,7 @@ def run_team(
         "time", None, None, own["time_budget_s"], own["speed_mps"], own["scan_time_s"]
     )
     single = (*RUN_FILES, TRAJECTORY_NAME)  # a single run's files in --out: an earlier run too
-    names = _check_run_folder(out, force, tuple(dict.fromkeys((*TEAM_RUN_FILES, *single))))
+    names = check_folder(tuple(dict.fromkeys((*TEAM_RUN_FILES, *single))))
     team = load_team_policy(policy, robots)
     load_spec(world)  # a bad world name or spec fails before the world is built
     simulator = SimulatorConfig(world=world, noise=noise, lidar=lidar_config(lidar),

@@ -66,11 +66,31 @@ def robot_index(agent: str) -> int:
     return int(agent.rpartition("_")[2])
 
 
-class EachRobot:
-    """Uncoordinated: robot k runs ``policies[k]``, a single-robot policy, on its own
-    observation and agent view (the team's keys left out, the mask without carry-on)."""
+class DecidingRobot:
+    """A team policy that chooses the deciding robot's goal (:meth:`_goal`) and carries on for
+    the others; deterministic unless :meth:`reset` says otherwise."""
 
     team = True
+
+    def reset(self, seed: int | None = None) -> None:
+        """Nothing to reset: the policy is deterministic."""
+
+    def act(
+        self,
+        observations: Mapping[str, Mapping[str, np.ndarray]],
+        infos: Mapping[str, Mapping[str, Any]],
+    ) -> dict[str, int]:
+        """The deciding robot's goal; carry on for the others."""
+        return deciding_robot_acts(infos, lambda a: self._goal(a, observations, infos))
+
+    def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
+        """The goal of ``agent``, the robot that decides now."""
+        raise NotImplementedError
+
+
+class EachRobot(DecidingRobot):
+    """Uncoordinated: robot k runs ``policies[k]``, a single-robot policy, on its own
+    observation and agent view (the team's keys left out, the mask without carry-on)."""
 
     def __init__(self, policies: Sequence[Policy]):
         for policy in policies:
@@ -86,14 +106,6 @@ class EachRobot:
         """Robot k's policy is reset with robot k's seed (robot 0's is ``seed``)."""
         for index, policy in enumerate(self.policies):
             policy.reset(robot_seed(seed, index))
-
-    def act(
-        self,
-        observations: Mapping[str, Mapping[str, np.ndarray]],
-        infos: Mapping[str, Mapping[str, Any]],
-    ) -> dict[str, int]:
-        """The deciding robot's policy's goal; carry on for the others."""
-        return deciding_robot_acts(infos, lambda agent: self._goal(agent, observations, infos))
 
     def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
         policy = self.policies[robot_index(agent)]
@@ -116,30 +128,17 @@ def check_single_policy(policy: object) -> None:
         )
 
 
-class UtilityFrontier:
+class UtilityFrontier(DecidingRobot):
     """Coordinated frontier exploration (module docstring): the deciding robot's frontier goal
     maximising utility − ``beta`` · cost (cost: path length / the cost range, the ``cost``
     layer), each frontier goal's utility 1 less ``1 − d / range_m`` for each teammate's goal at
     distance d < ``range_m`` metres. Without a frontier goal: the valid goal of least cost."""
 
-    team = True
-
     def __init__(self, beta: float = 1.0, range_m: float = SENSOR_RANGE_M):
         self.beta, self.range_m = float(beta), float(range_m)
 
-    def reset(self, seed: int | None = None) -> None:
-        """Nothing to reset: the policy is deterministic."""
-
-    def act(
-        self,
-        observations: Mapping[str, Mapping[str, np.ndarray]],
-        infos: Mapping[str, Mapping[str, Any]],
-    ) -> dict[str, int]:
-        """The deciding robot's goal; carry on for the others."""
-        return deciding_robot_acts(infos, lambda a: self._goal(a, observations, infos[a]))
-
-    def _goal(self, agent: str, observations: Mapping, info: Mapping[str, Any]) -> int:
-        observation = observations[agent]
+    def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
+        observation, info = observations[agent], infos[agent]
         valid = np.asarray(info["action_mask"])[:-1].astype(bool)
         frontier = valid & (np.asarray(observation["frontier"]) > 0)
         cost = np.asarray(observation["cost"], float)
@@ -162,7 +161,7 @@ class UtilityFrontier:
         return discount
 
 
-class HungarianFrontier:
+class HungarianFrontier(DecidingRobot):
     """Coordinated by cost assignment (module docstring): the robots that decide now
     (``info["decides_now"]``, each with its fresh ``cost`` and ``valid`` layers) are assigned
     distinct frontier goals — those valid for the deciding robot, so the teammates' goals stay
@@ -171,19 +170,6 @@ class HungarianFrontier:
     least cost outside the assigned ones. Deterministic and stateless: the robots waiting
     their turn get the same goals when they decide (the rest of an optimal assignment is
     optimal for the rest)."""
-
-    team = True
-
-    def reset(self, seed: int | None = None) -> None:
-        """Nothing to reset: the policy is deterministic."""
-
-    def act(
-        self,
-        observations: Mapping[str, Mapping[str, np.ndarray]],
-        infos: Mapping[str, Mapping[str, Any]],
-    ) -> dict[str, int]:
-        """The deciding robot's goal; carry on for the others."""
-        return deciding_robot_acts(infos, lambda a: self._goal(a, observations, infos))
 
     def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
         valid = np.asarray(infos[agent]["action_mask"])[:-1].astype(bool)
@@ -218,13 +204,13 @@ def assign_goals(cost: np.ndarray, valid: np.ndarray) -> np.ndarray:
 
 #: Team policies by name; any registered single-robot policy name also runs, as
 #: :meth:`EachRobot.of` (uncoordinated).
-TEAM_POLICIES: dict[str, type[UtilityFrontier] | type[HungarianFrontier]] = {
+TEAM_POLICIES: dict[str, type[DecidingRobot]] = {
     "utility-frontier": UtilityFrontier,
     "hungarian-frontier": HungarianFrontier,
 }
 
 
-def load_team_policy(name: str, n_robots: int) -> EachRobot | UtilityFrontier | HungarianFrontier:
+def load_team_policy(name: str, n_robots: int) -> DecidingRobot:
     """A team policy: a name of :data:`TEAM_POLICIES`, or a single-robot policy's name run
     on every robot (:class:`EachRobot`)."""
     if name in TEAM_POLICIES:

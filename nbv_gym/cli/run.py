@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Annotated
 
@@ -19,7 +20,7 @@ from nbv_gym.cli.options import (
     task_episode_config,
     task_of,
 )
-from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL
+from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL, POSITIVE_COUNT
 from nbv_gym.core.jsonfiles import dumps_json
 
 
@@ -41,6 +42,15 @@ def run(
     speed_mps: SpeedOption = None,
     scan_time_s: ScanTimeOption = None,
     lidar: AgentLidarOption = None,
+    robots: Annotated[
+        int,
+        typer.Option(
+            help="Robots exploring the world together: 2 or more run the team task (the time "
+            "task on one map and one clock; --policy a team policy such as hungarian-frontier or "
+            "utility-frontier, or a single-robot one run by every robot).",
+            parser=POSITIVE_COUNT,
+        ),
+    ] = 1,
     out: Annotated[Path, typer.Option(help="Run folder to write.")] = Path("runs/episode"),
     animation: Annotated[bool, typer.Option(help="Write exploration.gif (slower).")] = True,
     force: Annotated[
@@ -71,6 +81,13 @@ def run(
           --no-animation --json
       nbv-gym run --world pp1-trees --out runs/cf --force
       nbv-gym run --world pp1-trees --lidar vlp-16 --out runs/vlp16
+      nbv-gym run --robots 3 --policy hungarian-frontier --world pp1-cuboids \\
+          --out runs/team3
+
+    With --robots N (N ≥ 2) the folder holds scans.csv (robot, time_s: the team's clock,
+    path_length_m: the team's summed path, q, q_paper, discovered), summary.json (figures: the
+    team's; per_robot: a row per robot), map.npz, statistics.npz, paths.png (every robot's path
+    in its own colour) and exploration.gif.
     """
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.env.explore import EnvConfig
@@ -82,6 +99,15 @@ def run(
 
     if lidar is not None:
         lidar_config(lidar)  # an unknown preset fails first
+    if robots > 1:
+        from nbv_gym.cli.team_run import run_team
+
+        given = {"world": world, "policy": policy, "noise": noise, "seed": seed, "task": task,
+                 "budget_scans": budget_scans, "max_steps": max_steps,
+                 "time_budget_s": time_budget_s, "speed_mps": speed_mps,
+                 "scan_time_s": scan_time_s, "lidar": lidar}  # fmt: skip
+        run_team(robots, given, out, animation, partial(_check_run_folder, out, force), as_json)
+        return
     task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
     own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,
                         speed_mps=speed_mps, scan_time_s=scan_time_s)  # fmt: skip
@@ -133,15 +159,18 @@ def run(
     typer.echo(f"run folder: {out}")
 
 
-def _check_run_folder(out: Path, force: bool) -> tuple[str, ...]:
-    """The names of the files a run writes, after checking that ``out`` can take them: not
-    another command's folder, and no earlier run's files unless ``force``."""
+def _check_run_folder(
+    out: Path, force: bool, names: tuple[str, ...] | None = None
+) -> tuple[str, ...]:
+    """The names of the files a run writes (``names``, else the single robot's), after checking
+    that ``out`` can take them: not another command's folder, and no earlier run's files
+    unless ``force``."""
     from nbv_gym.core.outputs import OutputError, check_owner
     from nbv_gym.core.trajectory import TRAJECTORY_NAME
     from nbv_gym.episode import RUN_FILES
 
     check_owner(out, "run")
-    names = (*RUN_FILES, TRAJECTORY_NAME)
+    names = names or (*RUN_FILES, TRAJECTORY_NAME)
     earlier = [name for name in names if (out / name).exists()]
     if earlier and not force:
         raise OutputError(

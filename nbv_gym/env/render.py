@@ -3,9 +3,12 @@ the animation of an episode (``exploration.gif``)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
-from nbv_gym.simulator import Simulator
+from nbv_gym.simulator import Exploration, Simulator
 
 UNKNOWN, FREE, OCCUPIED = (0.55, 0.55, 0.58), (0.97, 0.97, 0.95), (0.1, 0.1, 0.12)
 FRONTIER = (1.0, 0.55, 0.0)
@@ -15,28 +18,38 @@ def render_rgb(sim: Simulator, size_px: int = 520) -> np.ndarray:
     """(size_px, 2 size_px, 3) uint8 picture: left the navigation map (unknown grey, free white,
     occupied black, frontiers orange) with the path, start and robot, and a legend; right the
     observation count n_obs per 1 m column."""
+    summary = sim.summary
+    titles = (
+        f"step {sim.steps} · discovered {sim.navigation.discovered_fraction:.0%}",
+        f"Q {summary.q:.3f} · Q_paper {summary.q_paper:.3f} · path {sim.path_length_m:.0f} m",
+    )
+    return render_exploration(sim, titles, lambda axes: _draw_path(axes, sim), size_px)
+
+
+def render_exploration(
+    exploration: Exploration,
+    titles: tuple[str, str],
+    draw: Callable[[Any], None],
+    size_px: int = 520,
+) -> np.ndarray:
+    """(size_px, 2 size_px, 3) uint8 picture of ``exploration``'s map (left, with a legend) and
+    its n_obs per 1 m column (right), ``draw(axes)`` drawing the robots on both panels,
+    ``titles`` over them (left, right)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(size_px / 50, size_px / 100), dpi=100)
     canvas = FigureCanvasAgg(figure)
     left, right = figure.subplots(1, 2)
-    extent = _extent(sim)
-    left.imshow(_map_image(sim).transpose(1, 0, 2), origin="lower", extent=extent)
-    _draw_path(left, sim)
-    n_obs = sim.statistics.column("n_obs")
+    extent = _extent(exploration)
+    left.imshow(_map_image(exploration).transpose(1, 0, 2), origin="lower", extent=extent)
+    draw(left)
+    n_obs = exploration.statistics.column("n_obs")
     heat = right.imshow(np.log1p(n_obs).T, origin="lower", extent=extent, cmap="magma")
-    _draw_path(right, sim)
+    draw(right)
     figure.colorbar(heat, ax=right, fraction=0.046, label="log(1 + n_obs) per 1 m column")
-    summary = sim.summary
-    left.set_title(
-        f"step {sim.steps} · discovered {sim.navigation.discovered_fraction:.0%}",
-        fontsize=11,
-    )
-    right.set_title(
-        f"Q {summary.q:.3f} · Q_paper {summary.q_paper:.3f} · path {sim.path_length_m:.0f} m",
-        fontsize=11,
-    )
+    left.set_title(titles[0], fontsize=11)
+    right.set_title(titles[1], fontsize=11)
     for axes in (left, right):
         axes.set_xlabel("x (m)", fontsize=10)
         axes.set_ylabel("y (m)", fontsize=10)
@@ -72,12 +85,12 @@ def _legend(axes) -> None:
                 ncol=2, handlelength=1.2)  # fmt: skip
 
 
-def _extent(sim: Simulator) -> tuple[float, float, float, float]:
+def _extent(sim: Exploration) -> tuple[float, float, float, float]:
     low, high = sim.goal_grid.low, sim.goal_grid.high
     return low[0], high[0], low[1], high[1]
 
 
-def _map_image(sim: Simulator) -> np.ndarray:
+def _map_image(sim: Exploration) -> np.ndarray:
     nav = sim.navigation
     image = np.empty((*nav.known.shape, 3))
     image[:] = UNKNOWN

@@ -43,6 +43,7 @@ AGENT_KEYS: dict[str, str] = {
     "predicted_gain": "the NBV layers' prediction, computed from the robot's own map",
     "realised_gain": "the same statistic on the robot's own statistics before and after the scan",
     "busy": "whether the robot decides now or drives, scans or waits its turn (the team task)",
+    "decides_now": "whether the robot decides at this moment or waits its turn at it (the team task)",
     "teammate_goals": "the goals the robot's teammates announced (a team shares its plans)",
     "team_elapsed_s": "the team's clock, which every robot of a team shares",
 }

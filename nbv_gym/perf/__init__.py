@@ -28,6 +28,7 @@ SUITES: dict[str, str] = {
     "references": "nbv_gym.perf.decisions",
     "rl-cluster": "nbv_gym.perf.rlcluster",
     "scale": "nbv_gym.perf.scale",
+    "team": "nbv_gym.perf.team",
 }
 
 

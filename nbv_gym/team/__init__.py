@@ -3,11 +3,17 @@
 
 from nbv_gym.team.env import TeamEnv
 from nbv_gym.team.episode import TeamEpisodeResult, run_team_episode
-from nbv_gym.team.policies import EachRobot, UtilityFrontier, load_team_policy
+from nbv_gym.team.policies import (
+    EachRobot,
+    HungarianFrontier,
+    UtilityFrontier,
+    load_team_policy,
+)
 from nbv_gym.team.simulator import TeamSimulator, start_points
 
 __all__ = [
     "EachRobot",
+    "HungarianFrontier",
     "TeamEnv",
     "TeamEpisodeResult",
     "TeamSimulator",

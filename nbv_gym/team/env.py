@@ -13,7 +13,8 @@ Action: ``Discrete(n_goals + 1)`` per robot: a goal cell of G (as in ``Explore-v
 
 Observation (per robot): the single-robot observation of ``Explore-v0`` (the base layers and
 ``state``, :mod:`nbv_gym.env.observation`) as the robot last decided on it — fresh for the
-deciding robot — plus ``teammates``, (N − 1, 6) float32, one row per teammate in index order:
+robots that decide at this moment (``info["decides_now"]``: the deciding robot and those
+waiting their turn) — plus ``teammates``, (N − 1, 6) float32, one row per teammate in index order:
 [x, y, goal x, goal y] / G's half-widths (the goal is where it drives to, or where it stands),
 its time to that goal's scan / the budget, and 1 while it runs (0 once stopped); and
 ``action_mask``. Reward: the ΔQ of the robot's own scans, each weighted by the share of the
@@ -138,8 +139,8 @@ class TeamEnv(ParallelEnv):
             raise ResetNeededError("Call reset() before step() (the team's episode has ended).")
         live = list(self.agents)
         self.sim.act(self._goal(actions))
-        if not self.sim.ended:
-            self._layers[self.sim.deciding] = self._observe_robot(self.sim.deciding)
+        for index in self.sim.deciding_now():  # fresh for each robot that decides now
+            self._layers[index] = self._observe_robot(index)
         rewards = self._rewards(live)
         terminated = dict.fromkeys(live, self.sim.terminated)
         truncated = {a: bool(self.sim.stopped[self._index(a)]) and not self.sim.terminated
@@ -273,13 +274,14 @@ class TeamEnv(ParallelEnv):
             "goal_cell_m": grid.res,
             "cost_range_m": self.config.simulator.mapping.navigation.cost_range_m,
         }
-        infos = {}
+        infos, deciding = {}, sim.deciding_now()
         for agent in agents:
             k = self._index(agent)
             robot = sim.robots[k]
             infos[agent] = {
                 **team,
                 "busy": sim.busy(k),
+                "decides_now": k in deciding,
                 "action_mask": self._mask(k).astype(np.int8),
                 "goal": robot.goal,
                 "teammate_goals": sim.teammates_goals(k),

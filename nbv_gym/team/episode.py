@@ -17,6 +17,7 @@ Team figures, each over the team's shared time budget T:
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,14 +48,23 @@ class TeamEpisodeResult:
     wall_time_s: float = 0.0
 
 
-def run_team_episode(env: TeamEnv, policy: Any, seed: int, q_target: float = Q_TARGET):
+def run_team_episode(
+    env: TeamEnv,
+    policy: Any,
+    seed: int,
+    q_target: float = Q_TARGET,
+    on_step: Callable[[TeamEnv], None] | None = None,
+) -> TeamEpisodeResult:
     """Run ``policy`` (a team policy: :func:`~nbv_gym.team.policies.check_team_policy`) in
-    ``env`` from ``reset(seed=seed)`` until every robot has stopped. Each robot's info is its
-    agent view (:func:`~nbv_gym.env.views.agent_view`)."""
+    ``env`` from ``reset(seed=seed)`` until every robot has stopped; ``on_step(env)`` after the
+    reset and after each step. Each robot's info is its agent view
+    (:func:`~nbv_gym.env.views.agent_view`)."""
     check_team_policy(policy)
     start = time.perf_counter()
     observations, infos = env.reset(seed=seed)
     policy.reset(seed)
+    if on_step:
+        on_step(env)
     while env.agents:
         views = {agent: agent_view(info) for agent, info in infos.items() if agent in env.agents}
         actions = policy.act({a: observations[a] for a in views}, views)
@@ -62,6 +72,8 @@ def run_team_episode(env: TeamEnv, policy: Any, seed: int, q_target: float = Q_T
             observations, _, _, _, infos = env.step(actions)
         except InvalidActionError as error:
             raise PolicyError(f"Team policy at scan {len(env.sim.scans)}: {error}") from None
+        if on_step:
+            on_step(env)
     return team_result(env.sim, q_target, time.perf_counter() - start)
 
 

@@ -126,6 +126,11 @@ class TeamSimulator:
         moment, or has stopped)."""
         return robot != self.deciding
 
+    def deciding_now(self) -> list[int]:
+        """The robots that decide at the current time, in index order: the deciding robot and
+        the idle ones waiting their turn at this moment ([] once the episode is over)."""
+        return [] if self.ended else self._idle()
+
     def remaining_s(self, robot: int) -> float:
         """Seconds of the budget left on ``robot``'s clock (inf without a budget)."""
         return self.robots[robot].remaining_s(self.budget)
@@ -326,8 +331,8 @@ def start_points(shared: Exploration, n_robots: int) -> list[tuple[float, float]
         raise ConfigError(
             f"n_robots: {n_robots} robots, but world {shared.world.name} has {len(points)} free "
             f"start points (one per {cell:g} m goal cell, the robot's {radius:g} m disc inside "
-            f"the {shared.world.clear_radius_m:g} m clear disc around the start); give "
-            "start_xy_m, one (x, y) per robot"
+            f"the {shared.world.clear_radius_m:g} m clear disc around the start); give at most "
+            f"{len(points)} robots, or each robot's start (start_xy_m)"
         )
     return points[:n_robots]
 

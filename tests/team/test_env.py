@@ -109,6 +109,7 @@ def test_no_two_robots_aim_at_one_goal_and_a_teammates_goal_is_refused(env):
             if not info["busy"]:
                 assert not observations[agent]["valid"][info["teammate_goals"]].any()
     _, infos = env.reset(seed=4)
+    assert all(info["decides_now"] for info in infos.values())  # all at once, one at a time
     deciding = next(a for a, info in infos.items() if not info["busy"])
     teammate = int(infos[deciding]["teammate_goals"][0])
     with pytest.raises(InvalidActionError, match="a teammate stands on it or drives to it"):

@@ -43,7 +43,7 @@ def test_team_figures_of_a_made_up_episode():
     assert team_figures(sim, robots, q_target=0.5)["time_to_q_s"] is None
 
 
-@pytest.mark.parametrize("name", ["closest-frontier", "utility-frontier"])
+@pytest.mark.parametrize("name", ["closest-frontier", "utility-frontier", "hungarian-frontier"])
 def test_a_team_of_three_explores_together_and_its_figures_follow_from_its_scans(name):
     env = TeamEnv(world="pp1-cuboids", n_robots=3, time_budget_s=120.0)
     result = run_team_episode(env, load_team_policy(name, 3), seed=6)
@@ -51,6 +51,9 @@ def test_a_team_of_three_explores_together_and_its_figures_follow_from_its_scans
     times, q = [r["time_s"] for r in rows], [r["q"] for r in rows]
     assert figures["q_time_auc"] == pytest.approx(area_under(times, q, 120.0), rel=1e-12)
     assert figures["q"] == q[-1] and figures["elapsed_s"] <= 120.0
+    effort = env.sim.effort  # the team's clock: the latest robot's own drives and scans
+    clocks = [effort.elapsed_s(r["path_length_m"], r["steps"]) for r in result.robots]
+    assert figures["elapsed_s"] == max(clocks) == max(times)
     assert {r["robot"] for r in rows} == {0, 1, 2}
     assert all(robot["steps"] >= 1 for robot in result.robots)
     first = env.sim.scans[0]

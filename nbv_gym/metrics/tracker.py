@@ -27,7 +27,6 @@ from nbv_gym.metrics.cuboids import (
     summarise,
 )
 
-
 #: The fewest cuboids whose coverage is searched on numba's threads. A step searches a few
 #: dozen at most; threads for so few cost more CPU time (their start and their spin-wait after
 #: the work) than the search itself: on a loaded 2-core machine, 2–3 raw casts a step instead

@@ -153,9 +153,8 @@ class OccupancyMap(CellReaders):
         self._window = MarkingWindow(grid.shape, max_range_m / grid.res)
         self._region_cells: dict[tuple, np.ndarray] = {}  # _touch_grid's tables per region
         self._dirty = np.zeros(self._pages.n_blocks, bool)  # store blocks written since clear()
-        self._first_scan = np.zeros(self._pages.n_blocks, bool)  # blocks the first scan wrote
+        self._mapped = np.zeros(self._pages.n_blocks, bool)  # blocks written before clear()
         self._journal = np.zeros(self._pages.n_blocks, bool)  # blocks inserts wrote since taken
-        self._scans = 0  # since the last clear()
         self._sigmoid_cache = new_cache()
 
     @classmethod
@@ -215,9 +214,6 @@ class OccupancyMap(CellReaders):
         n_occupied, n_changes, n_updated = self._update(
             origin_grid, points_grid, touched, cells, log, columns or NO_COLUMNS
         )
-        if not self._scans:
-            self._first_scan[:] = self._dirty
-        self._scans += 1
         changed = np.flatnonzero(touched)
         if tally is not None and not tally.apply(
             n_changes, self._sigmoid_cache, self._first_miss, changed
@@ -230,12 +226,13 @@ class OccupancyMap(CellReaders):
 
     def clear(self) -> None:
         """Forget every voxel (all unknown again), reusing the storage: only the blocks written
-        since the last clear are reset. Their memory pages are handed back to the system, except
-        those the first scan after the last clear wrote: an episode's first scan is taken from
-        the world's start pose, so the next one writes them again (and need not fault them in)."""
-        self._pages.zero_blocks(self._dirty, self._first_scan)
+        since the last clear are reset, in place, so that their memory pages stay mapped for the
+        next episode (which, from the same start pose, writes most of them again, and need not
+        fault them in). Pages that the episode before the last wrote but the last did not are
+        handed back to the system: the map holds at most two episodes' pages."""
+        self._pages.zero_blocks(self._dirty | self._mapped, self._dirty)
+        np.copyto(self._mapped, self._dirty)
         self._dirty[:] = False
-        self._scans = 0
 
     def written_blocks(self) -> np.ndarray:
         """(n_blocks,) bool: the store's blocks written since the last :meth:`clear` (a copy)."""

@@ -9,11 +9,13 @@ compares like 0 with any threshold a configuration can give, so kernels test one
 So a fresh store is a zero-filled anonymous memory mapping whose pages the system maps on first
 write, and forgetting voxels hands their pages back (``madvise(MADV_DONTNEED)`` on Linux;
 elsewhere they are zero-filled). Writers flag the :data:`BLOCK`-value blocks (one page, one brick
-of the map) they write; forgetting zeroes only those. After an episode only the pages of the
-volume its scans reached are resident (about an eighth of the default 147.5 MB map).
+of the map) they write; forgetting zeroes only those. The occupancy map zeroes an episode's
+pages in place at a reset, keeping them mapped for the next episode, and hands back those of
+the episode before that the last one did not write: only the pages of the volume the last two
+episodes' scans reached are resident (each about an eighth of the default 147.5 MB map).
 
-The price is a page fault for each page an episode writes first (about 900 per step on
-pp1-trees): on a virtual machine with costly faults, ~3.5 ms per step (``nbv-gym bench``).
+The price of a page not resident yet is a fault on its first write (~2 µs of CPU on a virtual
+machine), which an episode pays only where the one before did not write.
 
 Kernels read a voxel with :func:`is_known` and write a known value with :func:`stored`; numpy
 readers convert whole arrays with :func:`decoded` (NaN = unknown) and :func:`encoded`.

@@ -27,6 +27,12 @@ from nbv_gym.metrics.cuboids import (
     summarise,
 )
 
+#: The fewest cuboids whose coverage is searched on numba's threads. A step searches a few
+#: dozen at most; threads for so few cost more CPU time (their start and their spin-wait after
+#: the work) than the search itself: on a loaded 2-core machine, 2–3 raw casts a step instead
+#: of ~0.5.
+THREADED_CUBOIDS = 256
+
 
 def evaluate_cuboids(
     prob: FloatArray, gt: BoolArray, config: CuboidConfig | None = None
@@ -184,7 +190,8 @@ class QualityTracker:
                 f"got {levels.dtype} {levels.shape}"
             )
         self._found[:, flat] = 0.0
-        _coverages(
+        search = _coverages if len(flat) >= THREADED_CUBOIDS else _serial_coverages
+        search(
             np.ascontiguousarray(levels), flat, n, self.shape, self._gt_start, self._gt_voxels,
             self._offsets, self._within, self._found,
         )  # fmt: skip
@@ -388,12 +395,25 @@ def _block_totals(blocks, low, high):
 @njit(cache=True, parallel=True)
 def _coverages(levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov):
     """Set the coverages ``cov[:, f]`` of the flat cuboid indices ``flat`` from their (m, n, n,
-    n) uint32 ``levels``, in place (:func:`_coverage`)."""
+    n) uint32 ``levels``, in place (:func:`_cuboid_coverage`), on the threads."""
     for t in prange(flat.shape[0]):
-        f = flat[t]
-        corner = (f // (shape[1] * shape[2]) * n, (f // shape[2]) % shape[1] * n, f % shape[2] * n)
-        _coverage(levels[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
-                  cov[:, f])  # fmt: skip
+        _cuboid_coverage(t, levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov)
+
+
+@njit(cache=True)
+def _serial_coverages(levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov):
+    """:func:`_coverages` in the calling thread (the same bits)."""
+    for t in range(flat.shape[0]):
+        _cuboid_coverage(t, levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov)
+
+
+@njit(cache=True, inline="always")
+def _cuboid_coverage(t, levels, flat, n, shape, gt_start, gt_voxels, offsets, within, cov):
+    """Set the coverages ``cov[:, flat[t]]`` from ``levels[t]`` (:func:`_coverage`)."""
+    f = flat[t]
+    corner = (f // (shape[1] * shape[2]) * n, (f // shape[2]) % shape[1] * n, f % shape[2] * n)
+    _coverage(levels[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
+              cov[:, f])  # fmt: skip
 
 
 @njit(cache=True, nogil=True)

@@ -178,3 +178,23 @@ def test_column_counts_kept_by_insertion_equal_a_count_of_the_map():
         np.testing.assert_array_equal(counts.known > 0, projected[0])
         np.testing.assert_array_equal(counts.occupied > 0, projected[1])
     assert counts.occupied.sum() > 0 and counts.take_changed().size and not counts.changed.any()
+
+
+def test_each_episode_after_a_clear_equals_one_in_a_fresh_map():
+    # a clear keeps the last episode's pages mapped and hands back older ones: over episodes
+    # that write other blocks, each starts from an empty map all the same
+    params = {"p_hit": 0.7, "p_miss": 0.4, "p_clamp_min": 0.12, "p_clamp_max": 0.97,
+              "p_occupied": 0.5, "max_range_m": 20.0}  # fmt: skip
+    reused = OccupancyMap(BOX, **params)
+    rng = np.random.default_rng(3)
+    for x in (-1.5, 3.5, -1.5, 1.0, 4.5):  # the third episode's blocks are the first's again
+        origin = np.array([x, 0.05, 0.05])
+        points = origin + rng.uniform(-1.5, 1.5, (200, 3)) * [1, 1, 0.5]
+        points = np.clip(points, BOX.low + 0.01, BOX.high - 0.01)
+        fresh = OccupancyMap(BOX, **params)
+        for occupancy in (reused, fresh):
+            occupancy.insert(origin, points)
+        np.testing.assert_array_equal(reused.logodds, fresh.logodds)
+        assert np.array_equal(reused.written_blocks(), fresh.written_blocks())
+        reused.clear()
+        assert reused.n_known == 0 and not reused._store.any()

@@ -173,6 +173,11 @@ class ImitationConfig:
         return int((episode + 1) * share) > int(episode * share)
 
 
+#: Features of the robot state in the network's global feature vector (``features_dim`` holds
+#: them and the map's: :class:`~nbv_gym.rl.extractor.MapExtractor`).
+STATE_FEATURES = 32
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """One training run of an RL exploration agent.
@@ -305,7 +310,12 @@ class TrainConfig:
             f"unknown layer(s) {unknown}; optional layers: {list(OPTIONAL_LAYERS)}",
         )
         check(self.reward_scale > 0, "reward_scale", "must be > 0")
-        check(self.features_dim >= 8, "features_dim", "must be ≥ 8")
+        check(
+            self.features_dim > STATE_FEATURES,
+            "features_dim",
+            f"must be > {STATE_FEATURES} (the robot state's features; the rest are the map's), "
+            f"got {self.features_dim}",
+        )
         check(self.checkpoint_every_steps >= 0, "checkpoint_every_steps", "must be ≥ 0")
         check(self.eval_every_steps >= 0, "eval_every_steps", "must be ≥ 0")
         check(self.eval_episodes >= 0, "eval_episodes", "must be ≥ 0")

@@ -37,7 +37,13 @@ import numpy as np
 from nbv_gym.core.outputs import atomic
 from nbv_gym.core.progress import progress_bar
 from nbv_gym.rl.config import TrainConfig
-from nbv_gym.rl.labelfile import STATE_KEY, EpisodeLabels, decoding_table, labels_space
+from nbv_gym.rl.labelfile import (
+    STATE_KEY,
+    EpisodeLabels,
+    LabelFileError,
+    decoding_table,
+    labels_space,
+)
 
 #: Shards (episodes) whose states are shuffled together.
 BUFFER_EPISODES = 32
@@ -56,6 +62,19 @@ def teacher_targets(values: np.ndarray, temperature: float) -> np.ndarray:
         return np.full(len(values), 1 / len(values))
     weights = np.exp((values - np.max(values)) / (temperature * scale))
     return weights / weights.sum()
+
+
+def check_same_layout(path: Path, labels: EpisodeLabels, first: EpisodeLabels) -> None:
+    """:class:`LabelFileError` unless the shard ``labels`` (at ``path``) has the layers,
+    their bounds and the goal grid of ``first`` (states of one network's input)."""
+    layout = (labels.keys, labels.highs.tolist(), labels.n_goals)
+    expected = (first.keys, first.highs.tolist(), first.n_goals)
+    if layout != expected:
+        raise LabelFileError(
+            f"{str(path)!r} holds the layers {list(layout[0])} on {layout[2]} goals, the other "
+            f"shards {list(expected[0])} on {expected[2]} goals: a shard of another run; delete "
+            "it and rerun the same command (its episode is collected again)."
+        )
 
 
 def discounted_returns(rewards: np.ndarray, gamma: float) -> np.ndarray:
@@ -92,8 +111,11 @@ class States:
         parts: dict[str, list] = {k: [] for k in ("layers", "state", "mask", "returns")}
         candidates, targets, values = [], [], []
         labels = None
+        first = None
         for path in paths:
             labels = EpisodeLabels.from_file(path)
+            first = first or labels
+            check_same_layout(path, labels, first)
             returns = discounted_returns(config.reward_scale * labels.reward, config.learning.gamma)
             keep = np.diff(labels.offsets) > 0
             for t in np.flatnonzero(keep):

@@ -14,11 +14,13 @@ ship:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from nbv_gym.core.errors import ConfigError
 from nbv_gym.env.views import agent_view
 from nbv_gym.policies import Policy, PolicyError, is_oracle, load_policy, policy_name
 from nbv_gym.policies.registry import required_layers
@@ -67,6 +69,8 @@ class EachRobot:
     team = True
 
     def __init__(self, policies: Sequence[Policy]):
+        if not policies:
+            raise TeamPolicyError("EachRobot: give one single-robot policy per robot, got none")
         for policy in policies:
             check_single_policy(policy)
         self.policies = list(policies)
@@ -120,6 +124,12 @@ class UtilityFrontier:
 
     def __init__(self, beta: float = 1.0, range_m: float = SENSOR_RANGE_M):
         self.beta, self.range_m = float(beta), float(range_m)
+        if not (math.isfinite(self.beta) and self.beta >= 0):
+            raise ConfigError(f"UtilityFrontier: beta must be a finite number ≥ 0, got {beta!r}")
+        if not (math.isfinite(self.range_m) and self.range_m > 0):
+            raise ConfigError(
+                f"UtilityFrontier: range_m must be a finite number > 0, got {range_m!r}"
+            )
 
     def reset(self, seed: int | None = None) -> None:
         """Nothing to reset: the policy is deterministic."""

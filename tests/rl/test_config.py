@@ -50,6 +50,8 @@ def test_overrides_replace_file_values(tmp_path):
         ("n_envs = 1\n", r"learning\.batch_size: must be ≤ n_steps · n_envs = 128 · 1 = 128"),
         ('task = "race"\n', "task: expected one of explore, budget"),
         ('train_worlds = ["random:trees", "pp1-trees"]\n', "train_worlds: a world distribution"),
+        ("features_dim = 16\n", r"features_dim: must be > 32 \(the robot state's features"),
+        ("features_dim = 32\n", "features_dim: must be > 32"),  # no feature left for the map
     ],
     ids=[
         "unknown-key",
@@ -61,6 +63,8 @@ def test_overrides_replace_file_values(tmp_path):
         "batch-larger-than-rollout",
         "task",
         "distribution-with-worlds",
+        "features-below-the-state",
+        "no-map-features",
     ],
 )
 def test_bad_values_are_refused_with_their_key(tmp_path, text, match):

@@ -20,11 +20,12 @@ from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig  # no
 from nbv_gym.rl.imitation import (  # noqa: E402
     CHECKPOINT,
     MODEL,
+    States,
     discounted_returns,
     imitate,
     teacher_targets,
 )
-from nbv_gym.rl.labelfile import EpisodeRecorder  # noqa: E402
+from nbv_gym.rl.labelfile import EpisodeLabels, EpisodeRecorder, LabelFileError  # noqa: E402
 
 N_GOALS = 3600
 CANDIDATES = 12
@@ -140,3 +141,20 @@ def test_the_imitation_config_is_checked():
     assert [k for k in range(20) if config.is_validation(k)] == [9, 19]
     assert not ImitationConfig(validation_share=0.99).is_validation(0)  # one to train on
     assert [config.teacher_share(i) for i in range(3)] == [1.0, 0.5, 0.25]
+
+
+@pytest.mark.parametrize("edit", ["drop-layer", "fewer-goals"])
+def test_shards_of_another_layout_are_refused_not_mixed(tmp_path, edit):
+    good, other = toy_shards(tmp_path, 2, 3, seed=4)
+    labels = EpisodeLabels.from_file(other)
+    if edit == "drop-layer":
+        labels.keys, labels.highs, labels.layers = (
+            labels.keys[:-1],
+            labels.highs[:-1],
+            labels.layers[:, :-1],
+        )
+    else:
+        labels.layers = labels.layers[:, :, :100]
+    other.write_bytes(labels.to_bytes())
+    with pytest.raises(LabelFileError, match=r"episode-00001.npz' holds the layers .* another run"):
+        States.load([good, other], toy_config(1))

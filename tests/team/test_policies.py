@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from nbv_gym.team.policies import EachRobot, UtilityFrontier, load_team_policy
+from nbv_gym.core.errors import ConfigError
+from nbv_gym.team.policies import EachRobot, TeamPolicyError, UtilityFrontier, load_team_policy
 from nbv_gym.team.simulator import robot_seed
 
 N_GOALS = 10 * 10
@@ -58,3 +60,22 @@ def test_each_robot_runs_its_own_copy_seeded_per_robot():
     mask[5] = 1
     actions = team.act(observations, {"robot_0": info(False, mask=mask), "robot_1": info(True)})
     assert actions == {"robot_0": 5, "robot_1": N_GOALS}
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"beta": float("nan")}, "beta must be a finite number ≥ 0"),
+        ({"beta": -1.0}, "beta must be"),
+        ({"range_m": 0.0}, "range_m must be a finite number > 0"),
+        ({"range_m": float("inf")}, "range_m must be"),
+    ],
+)
+def test_utility_frontier_refuses_weights_that_rank_nothing(kwargs, message):
+    with pytest.raises(ConfigError, match=message):
+        UtilityFrontier(**kwargs)
+
+
+def test_each_robot_without_policies_is_refused():
+    with pytest.raises(TeamPolicyError, match="one single-robot policy per robot, got none"):
+        EachRobot([])

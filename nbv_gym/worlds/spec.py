@@ -203,7 +203,7 @@ def load_spec(name_or_path: str | Path) -> AnySpec:
     files = {p.name.removesuffix(".toml"): p for p in _spec_files()}
     if str(name_or_path) not in files:
         raise UnknownNameError("world", str(name_or_path), files)
-    spec = parse_spec(files[str(name_or_path)].read_text(), str(name_or_path))
+    spec = parse_spec(files[str(name_or_path)].read_text(encoding="utf-8"), str(name_or_path))
     assert isinstance(spec, WorldSpec)  # the shipped specs are procedural
     return spec
 

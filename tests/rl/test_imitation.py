@@ -131,7 +131,7 @@ def test_returns_are_discounted_sums():
 def test_the_imitation_config_is_checked():
     from nbv_gym.core.errors import ConfigError
 
-    with pytest.raises(ConfigError, match="temperature: must be > 0"):
+    with pytest.raises(ConfigError, match="temperature: must be a finite number > 0"):
         ImitationConfig(temperature=0)
     with pytest.raises(ConfigError, match="validation_share: must be in"):
         ImitationConfig(validation_share=1.0)

@@ -104,14 +104,15 @@ class States:
     returns: np.ndarray
 
     @classmethod
-    def load(cls, paths: list[Path], config: TrainConfig) -> States:
-        """The states of the shards ``paths`` with their targets under ``config``."""
+    def load(cls, paths: list[Path], config: TrainConfig, like: Path | None = None) -> States:
+        """The states of the shards ``paths`` with their targets under ``config``; each shard
+        must have the layout of the shard ``like`` (default: the first of ``paths``)."""
         imitation = config.imitation
         assert imitation is not None
         parts: dict[str, list] = {k: [] for k in ("layers", "state", "mask", "returns")}
         candidates, targets, values = [], [], []
         labels = None
-        first = None
+        first = EpisodeLabels.from_file(like) if like is not None else None
         for path in paths:
             labels = EpisodeLabels.from_file(path)
             first = first or labels
@@ -238,7 +239,7 @@ def imitate(
     policy = model.policy
     optimizer = th.optim.Adam(policy.parameters(), lr=imitation.learning_rate)
     state = _resume(out, policy, optimizer)
-    held_out = States.load(validation, config) if validation else None
+    held_out = States.load(validation, config, like=train[0]) if validation else None
     with progress_bar(imitation.epochs, f"imitation {iteration}", "epoch",
                       initial=state["epoch"], disable=not progress) as bar:  # fmt: skip
         for epoch in range(state["epoch"], imitation.epochs):
@@ -305,7 +306,7 @@ def _epoch(config: TrainConfig, policy, optimizer, paths: list[Path], rng) -> tu
 def _buffers(paths: list[Path], config: TrainConfig, rng) -> Iterator[States]:
     order = [paths[i] for i in rng.permutation(len(paths))]
     for start in range(0, len(order), BUFFER_EPISODES):
-        yield States.load(order[start : start + BUFFER_EPISODES], config)
+        yield States.load(order[start : start + BUFFER_EPISODES], config, like=paths[0])
 
 
 def evaluate(policy, states: States | None, batch_size: int) -> dict[str, float]:

@@ -195,6 +195,12 @@ def load_spec(name_or_path: str | Path) -> AnySpec:
         )
     if (member := pools.parse_member(str(name_or_path))) is not None:
         return member_spec(*member)
+    if pools.is_member_like(str(name_or_path)):
+        raise ConfigError(
+            f"world: {name_or_path!r} is no pool world; a pool's world is "
+            f"random:<kind>/<k> or random:<kind>/heldout-<k>, k a whole number from 0 to "
+            f"{pools.MAX_POOL_SIZE - 1:,} (e.g. random:wide/heldout-3)"
+        )
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():

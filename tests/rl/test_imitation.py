@@ -158,3 +158,5 @@ def test_shards_of_another_layout_are_refused_not_mixed(tmp_path, edit):
     other.write_bytes(labels.to_bytes())
     with pytest.raises(LabelFileError, match=r"episode-00001.npz' holds the layers .* another run"):
         States.load([good, other], toy_config(1))
+    with pytest.raises(LabelFileError, match="holds the layers"):  # alone, as the validation set
+        States.load([other], toy_config(1), like=good)

@@ -335,9 +335,16 @@ def _resume(out: Path, policy, optimizer) -> dict[str, Any]:
     path = out / CHECKPOINT
     if not path.exists():
         return {"epoch": 0, "rows": []}
-    saved = th.load(path, weights_only=True)
-    policy.load_state_dict(saved["policy"])
-    optimizer.load_state_dict(saved["optimizer"])
+    try:
+        saved = th.load(path, weights_only=True)
+        policy.load_state_dict(saved["policy"])
+        optimizer.load_state_dict(saved["optimizer"])
+    except Exception as error:  # torch raises many kinds for a damaged or foreign file
+        raise LabelFileError(
+            f"{str(path)!r} is no imitation checkpoint of this recipe ({type(error).__name__}); "
+            "delete it and rerun the same command (the imitation starts again from its first "
+            "epoch)."
+        ) from None
     return {"epoch": saved["epoch"], "rows": saved["rows"]}
 
 

@@ -195,6 +195,14 @@ def load_spec(name_or_path: str | Path) -> AnySpec:
         )
     if (member := pools.parse_member(str(name_or_path))) is not None:
         return member_spec(*member)
+    if (
+        pools.is_distribution(str(name_or_path))
+        and str(name_or_path)[len(pools.PREFIX) :] in pools.KINDS
+    ):
+        raise ConfigError(
+            f"world: {name_or_path!r} is a distribution, not one world; give one of its worlds "
+            f"({name_or_path}/<k> or {name_or_path}/heldout-<k>) or a world name"
+        )
     if pools.is_member_like(str(name_or_path)):
         raise ConfigError(
             f"world: {name_or_path!r} is no pool world; a pool's world is "

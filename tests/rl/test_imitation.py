@@ -160,3 +160,9 @@ def test_shards_of_another_layout_are_refused_not_mixed(tmp_path, edit):
         States.load([good, other], toy_config(1))
     with pytest.raises(LabelFileError, match="holds the layers"):  # alone, as the validation set
         States.load([other], toy_config(1), like=good)
+
+
+def test_a_damaged_checkpoint_is_refused_naming_it(toy, tmp_path):
+    (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
+    with pytest.raises(LabelFileError, match=r"checkpoint.pt' is no imitation checkpoint"):
+        imitate(toy_config(1), 0, toy[0], toy[1], tmp_path, progress=False)

@@ -91,6 +91,11 @@ def test_bad_pool_world_names_are_refused_in_one_line():
         WorldDistribution("wide", 100_001)
 
 
+def test_a_distribution_where_one_world_is_needed_names_its_worlds():
+    with pytest.raises(ConfigError, match=r"'random:wide' is a distribution, not one world; give"):
+        load_spec("random:wide")
+
+
 def test_unknown_distribution_suggests_the_near_miss():
     with pytest.raises(UnknownNameError, match="Did you mean 'random:trees'"):
         ExploreEnv(world="random:tree")

@@ -147,7 +147,7 @@ def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: di
     """Write the step table, the summary, the final map and statistics to ``out``; the summary
     (what ``summary.json`` holds)."""
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "steps.csv", "w", newline="") as f:
+    with open(out / "steps.csv", "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=STEP_COLUMNS)
         writer.writeheader()
         writer.writerows(result.steps)
@@ -161,7 +161,7 @@ def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: di
         "quality": asdict(env.sim.summary),
         "versions": versions(),
     }
-    (out / "summary.json").write_text(dumps_json(summary) + "\n")
+    (out / "summary.json").write_text(dumps_json(summary) + "\n", encoding="utf-8")
     env.sim.save(out)
     _write_exports(out, env)
     return summary

@@ -277,8 +277,8 @@ def build_leaderboard(
     say("drawing Q against the robot's time and the performance profiles…")
     save_q_time(entries, out / "q-time.png")
     save_profiles(entries, out / "profiles.png")
-    path = out / "leaderboard.md"
-    path.write_text(leaderboard_markdown(entries, improvements, pending, shift, verified))
+    text = leaderboard_markdown(entries, improvements, pending, shift, verified)
+    (path := out / "leaderboard.md").write_text(text, encoding="utf-8")
     notes = [pending, *(f"re-run: {note}" for note in verified)]
     summary = "\n".join([leaderboard_summary(entries, improvements, shift), *filter(None, notes)])
     return Leaderboard(path, write_html(path), summary)

@@ -215,6 +215,8 @@ def complete(
     if unknown:
         raise ReferenceUpdateError(f"suite {suite.name} has no part {unknown}; its parts: "
                              f"{', '.join(suite.splits)}")  # fmt: skip
+    if not names:
+        say(f"every {suite.name} reference holds {', '.join(splits)}: nothing to score")
     written = []
     for name in names:
         path = reference_path(name, suite.name)

@@ -177,7 +177,9 @@ def main(argv: list[str] | None = None) -> None:
         tuning = tune(name, config)
         record = {"policy": name, "parameter": tuning.parameter, "best": tuning.best,
                   "config": vars(config), "scores": {str(v): s for v, s in tuning.scores.items()}}  # fmt: skip
-        (args.out / f"{name}.json").write_text(json.dumps(record, indent=1) + "\n")
+        (args.out / f"{name}.json").write_text(
+            json.dumps(record, indent=1) + "\n", encoding="utf-8"
+        )
         tunings.append(tuning)
     print(tuning_markdown(tunings))
 

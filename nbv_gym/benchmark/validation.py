@@ -67,7 +67,7 @@ def validate_scorecard(
 def _validator():
     from jsonschema import Draft202012Validator
 
-    return Draft202012Validator(json.loads(SCHEMA_PATH.read_text()))
+    return Draft202012Validator(json.loads(SCHEMA_PATH.read_text(encoding="utf-8")))
 
 
 def _check_schema(card: Any, path: str | Path) -> None:

@@ -145,7 +145,7 @@ def evaluate_map(
     summary = map_summary(metrics, wd)
     if out is not None:
         write_cuboid_csv(out / CSV_NAME, metrics, wd, grid)
-        (out / SUMMARY_NAME).write_text(dumps_json(summary) + "\n")
+        (out / SUMMARY_NAME).write_text(dumps_json(summary) + "\n", encoding="utf-8")
         _write_heatmap(out / HEATMAP_NAME, metrics.quality, summary["q"])
     return summary
 

@@ -186,7 +186,7 @@ def study_empir3d(
 
 def _done(report: Path) -> None:
     """Print the report's verdict table and its path."""
-    text = report.read_text()
+    text = report.read_text(encoding="utf-8")
     start = text.find("| claim |")
     end = text.find("\n\n", start)
     if start >= 0:

@@ -98,7 +98,7 @@ def folder_owner(path: str | Path) -> str | None:
     path = Path(path)
     marker = path / OWNER_FILE
     if marker.is_file():
-        return marker.read_text(errors="replace").strip() or None
+        return marker.read_text(errors="replace", encoding="utf-8").strip() or None
     return next((command for command, sign in _OWNER_SIGNS if (path / sign).is_file()), None)
 
 
@@ -108,7 +108,7 @@ def claim_folder(path: str | Path, command: str, option: str = "--out") -> Path:
     owner = check_owner(path, command, option)
     writable_folder(path, option)
     if owner is None:
-        (Path(path) / OWNER_FILE).write_text(f"{command}\n")
+        (Path(path) / OWNER_FILE).write_text(f"{command}\n", encoding="utf-8")
     return Path(path)
 
 
@@ -238,7 +238,7 @@ class atomic:
         self.temporary = temporary(self.path)
 
     def __enter__(self):
-        self.file = open(self.temporary, self.mode)
+        self.file = open(self.temporary, self.mode, encoding=text_encoding(self.mode))
         return self.file
 
     def __exit__(self, kind, value, trace) -> None:
@@ -249,6 +249,12 @@ class atomic:
             self.temporary.unlink(missing_ok=True)
 
 
+def text_encoding(mode: str) -> str | None:
+    """UTF-8 for a text ``mode``, None for a binary one: every text file the package writes is
+    UTF-8, whatever the locale."""
+    return None if "b" in mode else "utf-8"
+
+
 def write_together(writers: dict[Path, tuple[str, Any]]) -> None:
     """Write several files, each by ``write(file)`` opened in ``mode``, to temporary names, and
     put them in place only when all were written (tables that must agree)."""
@@ -256,7 +262,7 @@ def write_together(writers: dict[Path, tuple[str, Any]]) -> None:
     try:
         for path, (mode, write) in writers.items():
             written.append(temporary(path))
-            with open(written[-1], mode) as f:
+            with open(written[-1], mode, encoding=text_encoding(mode)) as f:
                 write(f)
     except BaseException:
         for partial in written:

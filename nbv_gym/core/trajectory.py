@@ -19,7 +19,7 @@ def write_trajectory(path: str | Path, poses) -> Path:
     """Write the scan poses (objects with ``x``, ``y``, ``z``, ``yaw``; step 0 = the first scan)
     to a CSV of :data:`TRAJECTORY_COLUMNS`."""
     path = Path(path)
-    with path.open("w", newline="") as handle:
+    with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle)
         writer.writerow(TRAJECTORY_COLUMNS)
         for step, pose in enumerate(poses):

@@ -192,7 +192,7 @@ def write_rows(path: Path, rows: list[dict]) -> None:
     """Write ``rows`` (dicts with the same keys) to a CSV file at ``path``."""
     import csv
 
-    with path.open("w", newline="") as handle:
+    with path.open("w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]) if rows else [])
         writer.writeheader()
         writer.writerows(rows)

@@ -236,7 +236,7 @@ def one_env_memory() -> None:
 def _status_mib(key: str) -> float:
     """A memory figure of /proc/self/status in MiB (NaN where there is no /proc, e.g. macOS)."""
     try:
-        with open("/proc/self/status") as status:
+        with open("/proc/self/status", encoding="utf-8") as status:
             lines = dict(line.split(":", 1) for line in status)
     except OSError:
         return float("nan")

@@ -61,7 +61,7 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
         for window, n_assets in WORLDS.items():
             progress(f"{window} m window, {n_assets} assets: {RESETS} resets, {STEPS} steps")
             spec = Path(folder) / f"scale-{window}m.toml"
-            spec.write_text(spec_text(window, n_assets))
+            spec.write_text(spec_text(window, n_assets), encoding="utf-8")
             code = f"from nbv_gym.perf.scale import one_world; one_world({str(spec)!r})"
             done = subprocess.run(
                 [sys.executable, "-c", code], capture_output=True, text=True, check=True

@@ -70,7 +70,7 @@ class OracleTime:
         beta: float = DEFAULT_BETA,
         threads: int = THREADS,
     ):
-        self.beta, self.threads = float(beta), int(threads)
+        self.beta, self.threads = _number(beta), int(threads)
         if not (math.isfinite(self.beta) and self.beta >= 0):
             raise ConfigError(f"oracle-time's beta must be a finite number ≥ 0, got {beta!r}")
         if self.threads < 1:
@@ -133,3 +133,11 @@ def step_rewards(
     spent = episode.effort.elapsed_s(sim.path_length_m + path, sim.steps + 1)
     held = episode.budget.held(episode.budget.remaining_s(spent))
     return delta_q * held - episode.path_penalty_per_m * path, cost
+
+
+def _number(text: object) -> float:
+    """``text`` as a float (NaN for what is no number: refused by the caller's range check)."""
+    try:
+        return float(text)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return math.nan

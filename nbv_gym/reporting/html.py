@@ -67,7 +67,7 @@ def write_html(markdown_path: str | Path, out: str | Path | None = None) -> Path
     its local images embedded; the HTML file's path."""
     markdown_path = Path(markdown_path)
     out = Path(out) if out else markdown_path.with_suffix(".html")
-    text = markdown_path.read_text()
+    text = markdown_path.read_text(encoding="utf-8")
     body = _IMAGE.sub(lambda m: _embedded(markdown_path.parent, m), _render(text))
     body = body.replace("<p><figure>", "<figure>").replace("</figure></p>", "</figure>")
     title = next((line[2:] for line in text.splitlines() if line.startswith("# ")), "report")
@@ -77,7 +77,7 @@ def write_html(markdown_path: str | Path, out: str | Path | None = None) -> Path
         f"<title>{html.escape(title.replace('`', ''))}</title>\n<style>{STYLE}</style>\n"
         f"</head>\n<body>\n{body}<script>{SCRIPT}</script>\n</body>\n</html>\n"
     )
-    out.write_text(page)
+    out.write_text(page, encoding="utf-8")
     return out
 
 

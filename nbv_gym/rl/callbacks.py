@@ -28,7 +28,7 @@ class EpisodeLog(BaseCallback):
 
     def _on_training_start(self) -> None:
         header = _header(self.path)
-        self._file = open(self.path, "a", newline="")
+        self._file = open(self.path, "a", newline="", encoding="utf-8")
         self._writer = csv.DictWriter(self._file, header or COLUMNS, extrasaction="ignore")
         if header is None:  # a new file, or one left empty by an interrupted training
             self._writer.writeheader()
@@ -73,7 +73,7 @@ def _header(path: Path) -> list[str] | None:
     """The columns of the CSV file at ``path``; None if there is none yet."""
     if not path.exists():
         return None
-    with open(path, newline="") as file:
+    with open(path, newline="", encoding="utf-8") as file:
         return next(csv.reader(file), None)
 
 

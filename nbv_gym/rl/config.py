@@ -7,6 +7,7 @@ Top-level keys are :class:`TrainConfig`'s fields; the learning hyper-parameters 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -98,10 +99,19 @@ class LearningConfig:
         check(self.n_steps >= 2, "n_steps", f"must be ≥ 2, got {self.n_steps}")
         check(self.batch_size >= 2, "batch_size", f"must be ≥ 2, got {self.batch_size}")
         check(self.n_epochs >= 1, "n_epochs", f"must be ≥ 1, got {self.n_epochs}")
-        check(self.learning_rate > 0, "learning_rate", f"must be > 0, got {self.learning_rate}")
+        check(
+            0 < self.learning_rate < math.inf,
+            "learning_rate",
+            f"must be a finite number > 0, got {self.learning_rate}",
+        )
         check(0 < self.gamma <= 1, "gamma", f"must be in (0, 1], got {self.gamma}")
         check(0 <= self.gae_lambda <= 1, "gae_lambda", f"must be in [0, 1], got {self.gae_lambda}")
         check(self.clip_range > 0, "clip_range", f"must be > 0, got {self.clip_range}")
+        for key in ("clip_range", "ent_coef", "vf_coef", "max_grad_norm"):
+            value = getattr(self, key)
+            check(math.isfinite(value), key, f"must be a finite number, got {value}")
+        check(self.vf_coef >= 0, "vf_coef", f"must be ≥ 0, got {self.vf_coef}")
+        check(self.max_grad_norm > 0, "max_grad_norm", f"must be > 0, got {self.max_grad_norm}")
 
 
 @dataclass(frozen=True)
@@ -155,11 +165,23 @@ class ImitationConfig:
             "teacher_share_decay",
             f"must be in [0, 1], got {self.teacher_share_decay}",
         )
-        check(self.temperature > 0, "temperature", f"must be > 0, got {self.temperature}")
+        check(
+            0 < self.temperature < math.inf,
+            "temperature",
+            f"must be a finite number > 0, got {self.temperature}",
+        )
         check(self.epochs >= 1, "epochs", f"must be ≥ 1, got {self.epochs}")
         check(self.batch_size >= 1, "batch_size", f"must be ≥ 1, got {self.batch_size}")
-        check(self.learning_rate > 0, "learning_rate", f"must be > 0, got {self.learning_rate}")
-        check(self.value_coef >= 0, "value_coef", f"must be ≥ 0, got {self.value_coef}")
+        check(
+            0 < self.learning_rate < math.inf,
+            "learning_rate",
+            f"must be a finite number > 0, got {self.learning_rate}",
+        )
+        check(
+            0 <= self.value_coef < math.inf,
+            "value_coef",
+            f"must be a finite number ≥ 0, got {self.value_coef}",
+        )
 
     def teacher_share(self, iteration: int) -> float:
         """The probability that the teacher acts at a step of ``iteration`` (DAgger's β)."""
@@ -171,6 +193,11 @@ class ImitationConfig:
         never, so every iteration trains on one episode at least)."""
         share = self.validation_share
         return int((episode + 1) * share) > int(episode * share)
+
+
+#: Features of the robot state in the network's global feature vector (``features_dim`` holds
+#: them and the map's: :class:`~nbv_gym.rl.extractor.MapExtractor`).
+STATE_FEATURES = 32
 
 
 @dataclass(frozen=True)
@@ -304,8 +331,13 @@ class TrainConfig:
             "observation_layers",
             f"unknown layer(s) {unknown}; optional layers: {list(OPTIONAL_LAYERS)}",
         )
-        check(self.reward_scale > 0, "reward_scale", "must be > 0")
-        check(self.features_dim >= 8, "features_dim", "must be ≥ 8")
+        check(0 < self.reward_scale < math.inf, "reward_scale", "must be a finite number > 0")
+        check(
+            self.features_dim > STATE_FEATURES,
+            "features_dim",
+            f"must be > {STATE_FEATURES} (the robot state's features; the rest are the map's), "
+            f"got {self.features_dim}",
+        )
         check(self.checkpoint_every_steps >= 0, "checkpoint_every_steps", "must be ≥ 0")
         check(self.eval_every_steps >= 0, "eval_every_steps", "must be ≥ 0")
         check(self.eval_episodes >= 0, "eval_episodes", "must be ≥ 0")

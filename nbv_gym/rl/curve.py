@@ -68,7 +68,7 @@ def plot_learning_curve(out: str | Path) -> Path:
 
 def read_episodes(path: Path) -> dict[str, np.ndarray]:
     """The numeric columns of ``episodes.csv`` as arrays (one entry per episode)."""
-    with open(path, newline="") as file:
+    with open(path, newline="", encoding="utf-8") as file:
         rows = list(csv.DictReader(file))
     return {
         column: np.array([float(row[column]) for row in rows])

@@ -29,13 +29,13 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
 from nbv_gym.core import libm
+from nbv_gym.rl.config import STATE_FEATURES
 
 STATE_KEY = "state"
 #: Channels of the full-resolution features (the goal scores' input).
 LOCAL_CHANNELS = 8
 #: Channels of the coarse (s/4, s/8) map features.
 GLOBAL_CHANNELS = 16
-STATE_FEATURES = 32
 
 
 class MapExtractor(BaseFeaturesExtractor):

@@ -137,10 +137,10 @@ def package(
         shutil.copyfile(source.curve, out / CURVE_PNG)
     rows = evaluate(policy, config, episodes, seed, out / REPLAY, progress)
     results = summarise(rows, config, policy.masked, seed)
-    (out / RESULTS).write_text(json.dumps(results, indent=2) + "\n")
+    (out / RESULTS).write_text(json.dumps(results, indent=2) + "\n", encoding="utf-8")
     write_zoo_files(config, env_id, out)
     card = model_card(config, env_id, model_name, results, source.curve is not None)
-    (out / MODEL_CARD).write_text(card)
+    (out / MODEL_CARD).write_text(card, encoding="utf-8")
     return results
 
 
@@ -193,7 +193,7 @@ def write_zoo_files(config: TrainConfig, env_id: str, out: Path) -> None:
                  "n_timesteps": config.total_timesteps}  # fmt: skip
     for name, content in ((ZOO_CONFIG, hyperparameters), (ZOO_ENV_KWARGS, env_kwargs),
                           (ZOO_ARGS, arguments)):  # fmt: skip
-        (out / name).write_text(yaml.safe_dump(content, sort_keys=False))
+        (out / name).write_text(yaml.safe_dump(content, sort_keys=False), encoding="utf-8")
     with zipfile.ZipFile(out / ZOO_METRICS, "w") as metrics:
         metrics.write(out / RESULTS, RESULTS)
 

@@ -37,7 +37,13 @@ import numpy as np
 from nbv_gym.core.outputs import atomic
 from nbv_gym.core.progress import progress_bar
 from nbv_gym.rl.config import TrainConfig
-from nbv_gym.rl.labelfile import STATE_KEY, EpisodeLabels, decoding_table, labels_space
+from nbv_gym.rl.labelfile import (
+    STATE_KEY,
+    EpisodeLabels,
+    LabelFileError,
+    decoding_table,
+    labels_space,
+)
 
 #: Shards (episodes) whose states are shuffled together.
 BUFFER_EPISODES = 32
@@ -56,6 +62,19 @@ def teacher_targets(values: np.ndarray, temperature: float) -> np.ndarray:
         return np.full(len(values), 1 / len(values))
     weights = np.exp((values - np.max(values)) / (temperature * scale))
     return weights / weights.sum()
+
+
+def check_same_layout(path: Path, labels: EpisodeLabels, first: EpisodeLabels) -> None:
+    """:class:`LabelFileError` unless the shard ``labels`` (at ``path``) has the layers,
+    their bounds and the goal grid of ``first`` (states of one network's input)."""
+    layout = (labels.keys, labels.highs.tolist(), labels.n_goals)
+    expected = (first.keys, first.highs.tolist(), first.n_goals)
+    if layout != expected:
+        raise LabelFileError(
+            f"{str(path)!r} holds the layers {list(layout[0])} on {layout[2]} goals, the other "
+            f"shards {list(expected[0])} on {expected[2]} goals: a shard of another run; delete "
+            "it and rerun the same command (its episode is collected again)."
+        )
 
 
 def discounted_returns(rewards: np.ndarray, gamma: float) -> np.ndarray:
@@ -85,15 +104,19 @@ class States:
     returns: np.ndarray
 
     @classmethod
-    def load(cls, paths: list[Path], config: TrainConfig) -> States:
-        """The states of the shards ``paths`` with their targets under ``config``."""
+    def load(cls, paths: list[Path], config: TrainConfig, like: Path | None = None) -> States:
+        """The states of the shards ``paths`` with their targets under ``config``; each shard
+        must have the layout of the shard ``like`` (default: the first of ``paths``)."""
         imitation = config.imitation
         assert imitation is not None
         parts: dict[str, list] = {k: [] for k in ("layers", "state", "mask", "returns")}
         candidates, targets, values = [], [], []
         labels = None
+        first = EpisodeLabels.from_file(like) if like is not None else None
         for path in paths:
             labels = EpisodeLabels.from_file(path)
+            first = first or labels
+            check_same_layout(path, labels, first)
             returns = discounted_returns(config.reward_scale * labels.reward, config.learning.gamma)
             keep = np.diff(labels.offsets) > 0
             for t in np.flatnonzero(keep):
@@ -216,7 +239,7 @@ def imitate(
     policy = model.policy
     optimizer = th.optim.Adam(policy.parameters(), lr=imitation.learning_rate)
     state = _resume(out, policy, optimizer)
-    held_out = States.load(validation, config) if validation else None
+    held_out = States.load(validation, config, like=train[0]) if validation else None
     with progress_bar(imitation.epochs, f"imitation {iteration}", "epoch",
                       initial=state["epoch"], disable=not progress) as bar:  # fmt: skip
         for epoch in range(state["epoch"], imitation.epochs):
@@ -283,7 +306,7 @@ def _epoch(config: TrainConfig, policy, optimizer, paths: list[Path], rng) -> tu
 def _buffers(paths: list[Path], config: TrainConfig, rng) -> Iterator[States]:
     order = [paths[i] for i in rng.permutation(len(paths))]
     for start in range(0, len(order), BUFFER_EPISODES):
-        yield States.load(order[start : start + BUFFER_EPISODES], config)
+        yield States.load(order[start : start + BUFFER_EPISODES], config, like=paths[0])
 
 
 def evaluate(policy, states: States | None, batch_size: int) -> dict[str, float]:
@@ -312,9 +335,16 @@ def _resume(out: Path, policy, optimizer) -> dict[str, Any]:
     path = out / CHECKPOINT
     if not path.exists():
         return {"epoch": 0, "rows": []}
-    saved = th.load(path, weights_only=True)
-    policy.load_state_dict(saved["policy"])
-    optimizer.load_state_dict(saved["optimizer"])
+    try:
+        saved = th.load(path, weights_only=True)
+        policy.load_state_dict(saved["policy"])
+        optimizer.load_state_dict(saved["optimizer"])
+    except Exception as error:  # torch raises many kinds for a damaged or foreign file
+        raise LabelFileError(
+            f"{str(path)!r} is no imitation checkpoint of this recipe ({type(error).__name__}); "
+            "delete it and rerun the same command (the imitation starts again from its first "
+            "epoch)."
+        ) from None
     return {"epoch": saved["epoch"], "rows": saved["rows"]}
 
 

@@ -40,7 +40,7 @@ from nbv_gym.core.progress import progress_bar, say
 from nbv_gym.env.explore import ExploreEnv
 from nbv_gym.env.views import agent_view
 from nbv_gym.rl.config import TrainConfig
-from nbv_gym.rl.labelfile import EpisodeRecorder
+from nbv_gym.rl.labelfile import EpisodeLabels, EpisodeRecorder, LabelFileError
 from nbv_gym.worlds import load_world
 from nbv_gym.worlds.distribution import is_distribution
 
@@ -122,6 +122,9 @@ def collect(
     paths = [shard_path(folder, k) for k in range(imitation.episodes_per_iteration)]
     share = imitation.teacher_share(iteration)
     setup = CollectionSetup.of(config)
+    for k, path in enumerate(paths):
+        if path.exists():
+            check_shard(path, config.seed, iteration, k)
     todo = [EpisodeJob(setup, iteration, k, episode_seed(config.seed, iteration, k), share)
             for k, path in enumerate(paths) if not path.exists()]  # fmt: skip
     if not todo:
@@ -141,6 +144,22 @@ def collect(
             bar.set_postfix_str(f"{states / (time.monotonic() - started):.2f} labels/s")
             bar.update()
     return paths
+
+
+def check_shard(path: Path, seed: int, iteration: int, episode: int) -> None:
+    """:class:`LabelFileError` unless the shard at ``path`` is episode ``episode`` of
+    ``iteration`` under the config's ``seed`` (a shard copied from another run, iteration or
+    episode is never trained on)."""
+    labels = EpisodeLabels.from_file(path)
+    found = (labels.iteration, labels.episode, labels.seed)
+    expected = (iteration, episode, episode_seed(seed, iteration, episode))
+    if found != expected:
+        raise LabelFileError(
+            f"{str(path)!r} holds iteration {found[0]}, episode {found[1]} with reset seed "
+            f"{found[2]}, not this recipe's iteration {expected[0]}, episode {expected[1]} "
+            f"(seed {expected[2]}): a shard of another run; delete it and rerun the same "
+            "command (its episode is collected again)."
+        )
 
 
 def _where(config: TrainConfig) -> str:

@@ -237,12 +237,12 @@ def write_run_info(config: TrainConfig, out: Path) -> None:
     """Write ``config.toml`` and ``system_info.txt`` (platform and library versions)."""
     from nbv_gym.core.provenance import versions
 
-    (out / "config.toml").write_text(dumps_toml(to_dict(config)))
+    (out / "config.toml").write_text(dumps_toml(to_dict(config)), encoding="utf-8")
     found = versions()
     for package in ("torch", "stable-baselines3", "sb3-contrib", "tensorboard"):
         found.update(_version(package))
     lines = [f"platform: {platform.platform()}", *(f"{k}: {v}" for k, v in found.items())]
-    (out / "system_info.txt").write_text("\n".join(lines) + "\n")
+    (out / "system_info.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
 def dumps_toml(data: dict[str, Any]) -> str:

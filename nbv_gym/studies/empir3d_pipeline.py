@@ -79,7 +79,7 @@ def run_empir3d_study(
         "wall_time_s": round(time.perf_counter() - start, 1),
         "versions": versions(),
     }
-    (out / "study.json").write_text(dumps_json(study) + "\n")
+    (out / "study.json").write_text(dumps_json(study) + "\n", encoding="utf-8")
     return _report(out, study, baseline, results)
 
 

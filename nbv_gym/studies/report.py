@@ -35,7 +35,9 @@ def verdict_table(verdicts: Iterable[Verdict]) -> str:
 def write_report(path: Path, title: str, sections: Sequence[str]) -> Path:
     """Write ``# title`` and the Markdown ``sections`` (separated by blank lines) to ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(f"# {title}\n\n" + "\n\n".join(s.strip() for s in sections) + "\n")
+    path.write_text(
+        f"# {title}\n\n" + "\n\n".join(s.strip() for s in sections) + "\n", encoding="utf-8"
+    )
     return path
 
 

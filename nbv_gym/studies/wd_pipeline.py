@@ -67,7 +67,7 @@ def run_wd_study(config: WdStudyConfig, out: Path, runs_dir: Path | None = None)
         "timings_s": timings,
         "versions": versions(),
     }
-    (out / STUDY_NAME).write_text(dumps_json(study) + "\n")
+    (out / STUDY_NAME).write_text(dumps_json(study) + "\n", encoding="utf-8")
     return build_wd_report(out)
 
 

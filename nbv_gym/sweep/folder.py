@@ -128,7 +128,7 @@ class ResultStore:
 
         path = self.root / ".lock"
         try:
-            handle = open(path, "a+")
+            handle = open(path, "a+", encoding="utf-8")
         except OSError as error:
             raise SweepError(_cannot_write(path, error)) from None
         try:

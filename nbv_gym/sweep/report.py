@@ -101,7 +101,7 @@ def build_report(results: str | Path, out: str | Path | None = None, seed: int =
         ]
     sections.append(_failures_section(data.runs))
     path = out / "report.md"
-    path.write_text("\n\n".join(s for s in sections if s) + "\n")
+    path.write_text("\n\n".join(s for s in sections if s) + "\n", encoding="utf-8")
     write_html(path)
     return path
 

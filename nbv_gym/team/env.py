@@ -124,8 +124,11 @@ class TeamEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         """Start an episode: every robot's first scan, robot 0 to decide. ``options`` is
         accepted for PettingZoo's API and read for nothing."""
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int | np.integer)
+                                 or seed < 0):  # fmt: skip
+            raise ConfigError(f"reset(seed=...): expected None or an integer ≥ 0, got {seed!r}")
         if seed is not None or self._np_random is None:
-            self._np_random, _ = seeding.np_random(seed)
+            self._np_random, _ = seeding.np_random(None if seed is None else int(seed))
         self.sim.reset(int(self._np_random.integers(2**63 - 1)))
         self._rewarded = len(self.sim.scans)
         self._layers = [self._observe_robot(k) for k in range(len(self.possible_agents))]

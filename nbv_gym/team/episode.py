@@ -23,12 +23,13 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.core.errors import ConfigError
 from nbv_gym.env.views import agent_view
 from nbv_gym.metrics.effort import area_under
-from nbv_gym.policies import PolicyError
+from nbv_gym.policies import PolicyError, policy_name
 from nbv_gym.simulator import InvalidActionError
 from nbv_gym.team.env import TeamEnv
-from nbv_gym.team.policies import check_team_policy
+from nbv_gym.team.policies import TeamPolicyError, check_team_policy
 from nbv_gym.team.simulator import TeamSimulator
 
 #: Default Q target of ``time_to_q_s``: chosen, a little below the median Q one closest-frontier
@@ -60,6 +61,13 @@ def run_team_episode(
     reset and after each step. Each robot's info is its agent view
     (:func:`~nbv_gym.env.views.agent_view`)."""
     check_team_policy(policy)
+    check_q_target(q_target)
+    robots = getattr(policy, "policies", None)  # EachRobot: one single-robot policy per robot
+    if robots is not None and len(robots) != len(env.possible_agents):
+        raise TeamPolicyError(
+            f"{policy_name(policy)} holds {len(robots)} robot policies for a team of "
+            f"{len(env.possible_agents)}; give one per robot (EachRobot.of(name, n_robots))"
+        )
     start = time.perf_counter()
     observations, infos = env.reset(seed=seed)
     policy.reset(seed)
@@ -75,6 +83,14 @@ def run_team_episode(
         if on_step:
             on_step(env)
     return team_result(env.sim, q_target, time.perf_counter() - start)
+
+
+def check_q_target(q_target: object) -> None:
+    """ConfigError unless ``q_target`` is a number in (0, 1] (a Q to reach)."""
+    if isinstance(q_target, bool) or not isinstance(q_target, int | float | np.floating):
+        raise ConfigError(f"q_target: expected a number in (0, 1], got {q_target!r}")
+    if not 0 < q_target <= 1:
+        raise ConfigError(f"q_target: a Q to reach must be in (0, 1], got {q_target}")
 
 
 def team_result(sim: TeamSimulator, q_target: float, wall_time_s: float) -> TeamEpisodeResult:

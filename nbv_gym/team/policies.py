@@ -18,13 +18,14 @@ ship:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from nbv_gym.core.errors import UnknownNameError
+from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.env.views import agent_view
 from nbv_gym.policies import Policy, PolicyError, is_oracle, load_policy, policy_name
 from nbv_gym.policies.registry import POLICIES, required_layers
@@ -93,6 +94,8 @@ class EachRobot(DecidingRobot):
     observation and agent view (the team's keys left out, the mask without carry-on)."""
 
     def __init__(self, policies: Sequence[Policy]):
+        if not policies:
+            raise TeamPolicyError("EachRobot: give one single-robot policy per robot, got none")
         for policy in policies:
             check_single_policy(policy)
         self.policies = list(policies)
@@ -136,6 +139,12 @@ class UtilityFrontier(DecidingRobot):
 
     def __init__(self, beta: float = 1.0, range_m: float = SENSOR_RANGE_M):
         self.beta, self.range_m = float(beta), float(range_m)
+        if not (math.isfinite(self.beta) and self.beta >= 0):
+            raise ConfigError(f"UtilityFrontier: beta must be a finite number ≥ 0, got {beta!r}")
+        if not (math.isfinite(self.range_m) and self.range_m > 0):
+            raise ConfigError(
+                f"UtilityFrontier: range_m must be a finite number > 0, got {range_m!r}"
+            )
 
     def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
         observation, info = observations[agent], infos[agent]

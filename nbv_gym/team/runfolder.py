@@ -35,7 +35,7 @@ def write_team_run_folder(
     from nbv_gym.team.render import render_team_rgb
 
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "scans.csv", "w", newline="") as f:
+    with open(out / "scans.csv", "w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=SCAN_COLUMNS)
         writer.writeheader()
         writer.writerows(result.scans)
@@ -49,7 +49,7 @@ def write_team_run_folder(
         "quality": asdict(env.sim.shared.summary),
         "versions": versions(),
     }
-    (out / "summary.json").write_text(dumps_json(summary) + "\n")
+    (out / "summary.json").write_text(dumps_json(summary) + "\n", encoding="utf-8")
     env.sim.shared.save(out)
     Image.fromarray(render_team_rgb(env.sim)).save(out / "paths.png")
     return summary

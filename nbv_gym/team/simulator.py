@@ -305,6 +305,22 @@ def check_team_size(n_robots: object, start_xy_m: Sequence | None) -> None:
         raise ConfigError(
             f"start_xy_m: expected one (x, y) per robot ({n_robots}), got {len(start_xy_m)}"
         )
+    for index, start in enumerate(start_xy_m or ()):
+        if not _is_xy(start):
+            raise ConfigError(
+                f"start_xy_m: robot {index}'s start must be (x, y), two numbers in metres, "
+                f"got {start!r}"
+            )
+
+
+def _is_xy(start: object) -> bool:
+    """Whether ``start`` is a pair of real numbers (not bools, not strings)."""
+    if isinstance(start, (str, bytes)) or not isinstance(start, Sequence | np.ndarray):
+        return False
+    return len(start) == 2 and all(
+        isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+        for v in start
+    )
 
 
 def start_points(shared: Exploration, n_robots: int) -> list[tuple[float, float]]:

@@ -98,6 +98,13 @@ def parse_member(name: str) -> tuple[str, int, bool] | None:
     return kind, int(digits), heldout
 
 
+def is_member_like(name: str) -> bool:
+    """Whether ``name`` looks meant as a pool's world (``random:<kind>/…``, a known kind) but is
+    no :func:`parse_member` name (its index is no whole number, or it has more parts)."""
+    kind, slash, _ = str(name).removeprefix(PREFIX).partition("/")
+    return str(name).startswith(PREFIX) and bool(slash) and kind in KINDS
+
+
 def member_data(kind: str, index: int, heldout: bool = False) -> dict[str, Any]:
     """The spec (as a table: name, placement, assets, description) of world ``index`` of
     ``random:<kind>``'s pool, or of its held-out set; ``ValueError`` for an unknown kind or an

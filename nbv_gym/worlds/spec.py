@@ -195,6 +195,20 @@ def load_spec(name_or_path: str | Path) -> AnySpec:
         )
     if (member := pools.parse_member(str(name_or_path))) is not None:
         return member_spec(*member)
+    if (
+        pools.is_distribution(str(name_or_path))
+        and str(name_or_path)[len(pools.PREFIX) :] in pools.KINDS
+    ):
+        raise ConfigError(
+            f"world: {name_or_path!r} is a distribution, not one world; give one of its worlds "
+            f"({name_or_path}/<k> or {name_or_path}/heldout-<k>) or a world name"
+        )
+    if pools.is_member_like(str(name_or_path)):
+        raise ConfigError(
+            f"world: {name_or_path!r} is no pool world; a pool's world is "
+            f"random:<kind>/<k> or random:<kind>/heldout-<k>, k a whole number from 0 to "
+            f"{pools.MAX_POOL_SIZE - 1:,} (e.g. random:wide/heldout-3)"
+        )
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
         if not path.is_file():
@@ -203,7 +217,7 @@ def load_spec(name_or_path: str | Path) -> AnySpec:
     files = {p.name.removesuffix(".toml"): p for p in _spec_files()}
     if str(name_or_path) not in files:
         raise UnknownNameError("world", str(name_or_path), files)
-    spec = parse_spec(files[str(name_or_path)].read_text(), str(name_or_path))
+    spec = parse_spec(files[str(name_or_path)].read_text(encoding="utf-8"), str(name_or_path))
     assert isinstance(spec, WorldSpec)  # the shipped specs are procedural
     return spec
 

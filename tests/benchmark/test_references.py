@@ -15,6 +15,8 @@ import pytest
 from nbv_gym.benchmark.references import (
     REFERENCE_DIR,
     REFERENCE_SUITE,
+    ReferenceUpdateError,
+    complete,
     is_current,
     load_references,
     missing_parts,
@@ -210,3 +212,12 @@ def test_load_references_follows_the_shipped_order(suite):
     assert [c["policy"]["name"] for c in load_references(suite)] == [
         n for n in SHIPPED if reference_path(n, suite).is_file()
     ]
+
+
+def test_completing_parts_every_reference_holds_says_so_and_scores_nothing(tmp_path):
+    said: list[str] = []
+    assert complete([], ["time-shift"], tmp_path / "work", say=said.append) == []
+    assert said == ["every standard reference holds time-shift: nothing to score"]
+    with pytest.raises(ReferenceUpdateError, match=r"suite standard has no part \['nonsense'\]"):
+        complete([], ["nonsense"], tmp_path / "work", say=said.append)
+    assert not (tmp_path / "work").exists()

@@ -50,6 +50,15 @@ def test_overrides_replace_file_values(tmp_path):
         ("n_envs = 1\n", r"learning\.batch_size: must be ≤ n_steps · n_envs = 128 · 1 = 128"),
         ('task = "race"\n', "task: expected one of explore, budget"),
         ('train_worlds = ["random:trees", "pp1-trees"]\n', "train_worlds: a world distribution"),
+        ("features_dim = 16\n", r"features_dim: must be > 32 \(the robot state's features"),
+        ("features_dim = 32\n", "features_dim: must be > 32"),  # no feature left for the map
+        ("[learning]\nlearning_rate = inf\n", "learning_rate: must be a finite number > 0"),
+        ("[learning]\nmax_grad_norm = nan\n", "max_grad_norm: must be a finite number"),
+        ("[learning]\nvf_coef = -1.0\n", "vf_coef: must be ≥ 0"),
+        ("reward_scale = inf\n", "reward_scale: must be a finite number > 0"),
+        ("[imitation]\ntemperature = inf\n", "temperature: must be a finite number > 0"),
+        ("[imitation]\nlearning_rate = inf\n", "learning_rate: must be a finite number > 0"),
+        ("[imitation]\nvalue_coef = nan\n", "value_coef: must be a finite number ≥ 0"),
     ],
     ids=[
         "unknown-key",
@@ -61,6 +70,15 @@ def test_overrides_replace_file_values(tmp_path):
         "batch-larger-than-rollout",
         "task",
         "distribution-with-worlds",
+        "features-below-the-state",
+        "no-map-features",
+        "learning-rate-inf",
+        "grad-norm-nan",
+        "vf-coef-negative",
+        "reward-scale-inf",
+        "imitation-temperature-inf",
+        "imitation-learning-rate-inf",
+        "imitation-value-coef-nan",
     ],
 )
 def test_bad_values_are_refused_with_their_key(tmp_path, text, match):

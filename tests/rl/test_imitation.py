@@ -20,11 +20,12 @@ from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig  # no
 from nbv_gym.rl.imitation import (  # noqa: E402
     CHECKPOINT,
     MODEL,
+    States,
     discounted_returns,
     imitate,
     teacher_targets,
 )
-from nbv_gym.rl.labelfile import EpisodeRecorder  # noqa: E402
+from nbv_gym.rl.labelfile import EpisodeLabels, EpisodeRecorder, LabelFileError  # noqa: E402
 
 N_GOALS = 3600
 CANDIDATES = 12
@@ -130,7 +131,7 @@ def test_returns_are_discounted_sums():
 def test_the_imitation_config_is_checked():
     from nbv_gym.core.errors import ConfigError
 
-    with pytest.raises(ConfigError, match="temperature: must be > 0"):
+    with pytest.raises(ConfigError, match="temperature: must be a finite number > 0"):
         ImitationConfig(temperature=0)
     with pytest.raises(ConfigError, match="validation_share: must be in"):
         ImitationConfig(validation_share=1.0)
@@ -140,3 +141,28 @@ def test_the_imitation_config_is_checked():
     assert [k for k in range(20) if config.is_validation(k)] == [9, 19]
     assert not ImitationConfig(validation_share=0.99).is_validation(0)  # one to train on
     assert [config.teacher_share(i) for i in range(3)] == [1.0, 0.5, 0.25]
+
+
+@pytest.mark.parametrize("edit", ["drop-layer", "fewer-goals"])
+def test_shards_of_another_layout_are_refused_not_mixed(tmp_path, edit):
+    good, other = toy_shards(tmp_path, 2, 3, seed=4)
+    labels = EpisodeLabels.from_file(other)
+    if edit == "drop-layer":
+        labels.keys, labels.highs, labels.layers = (
+            labels.keys[:-1],
+            labels.highs[:-1],
+            labels.layers[:, :-1],
+        )
+    else:
+        labels.layers = labels.layers[:, :, :100]
+    other.write_bytes(labels.to_bytes())
+    with pytest.raises(LabelFileError, match=r"episode-00001.npz' holds the layers .* another run"):
+        States.load([good, other], toy_config(1))
+    with pytest.raises(LabelFileError, match="holds the layers"):  # alone, as the validation set
+        States.load([other], toy_config(1), like=good)
+
+
+def test_a_damaged_checkpoint_is_refused_naming_it(toy, tmp_path):
+    (tmp_path / CHECKPOINT).write_bytes(b"not a checkpoint")
+    with pytest.raises(LabelFileError, match=r"checkpoint.pt' is no imitation checkpoint"):
+        imitate(toy_config(1), 0, toy[0], toy[1], tmp_path, progress=False)

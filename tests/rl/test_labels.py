@@ -27,6 +27,7 @@ from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig
 from nbv_gym.rl.labelfile import (
     LEVELS,
     EpisodeLabels,
+    LabelFileError,
     decoding_table,
     encode_layers,
 )
@@ -178,3 +179,15 @@ def test_workers_and_a_dask_cluster_collect_the_shards_of_one_process(collected,
         a, b = EpisodeLabels.from_file(ours), EpisodeLabels.from_file(theirs)
         assert np.array_equal(a.layers, b.layers) and np.array_equal(a.values, b.values)
         assert np.array_equal(a.action, b.action) and a.seed == b.seed
+
+
+def test_a_shard_of_another_episode_or_run_is_refused_naming_it(collected, tmp_path):
+    config, paths = collected
+    folder = tmp_path / "iter-0"
+    folder.mkdir()
+    (folder / paths[0].name).write_bytes(paths[1].read_bytes())  # episode 1's labels as 0's
+    with pytest.raises(LabelFileError, match=r"holds iteration 0, episode 1 .* a shard of another"):
+        collect(config, folder, 0, None, progress=False)
+    other = replace(config, seed=config.seed + 1)  # the same files under another recipe seed
+    with pytest.raises(LabelFileError, match="not this recipe's iteration 0, episode 0"):
+        collect(other, paths[0].parent, 0, None, progress=False)

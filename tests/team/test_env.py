@@ -153,6 +153,12 @@ def test_a_finished_episode_and_a_step_before_reset_ask_for_a_reset():
         ({"n_robots": 2, "start_xy_m": [(0.0, 0.0)]}, r"one \(x, y\) per robot \(2\), got 1"),
         ({"n_robots": 2, "start_xy_m": [(3.2, 1.0), (3.7, 1.4)]}, "duplicate start poses"),
         ({"world": "random:mixed"}, "explores one world"),
+        (
+            {"n_robots": 2, "start_xy_m": [(0, 0, 0), (1, 1, 1)]},
+            r"robot 0's start must be \(x, y\)",
+        ),
+        ({"n_robots": 2, "start_xy_m": [(0.0, 0.0), "ab"]}, "robot 1's start must be"),
+        ({"n_robots": 2, "start_xy_m": [(0.0, 0.0), (True, 1.0)]}, "two numbers in metres"),
     ],
 )
 def test_bad_team_input_gets_one_clear_line(kwargs, message):
@@ -179,3 +185,10 @@ def test_a_single_robot_policy_where_a_team_policy_is_expected_is_refused():
         run_team_episode(fresh, load_policy("closest-frontier"), seed=0)
     with pytest.raises(TeamPolicyError, match="oracle"):
         EachRobot.of("oracle-greedy", 2)
+
+
+@pytest.mark.parametrize("seed", [-1, 1.5, True, "3"])
+def test_a_reset_seed_that_is_no_integer_from_0_is_refused_naming_it(seed):
+    fresh = TeamEnv(world=WORLD, n_robots=2, time_budget_s=BUDGET_S)
+    with pytest.raises(ConfigError, match=r"reset\(seed=...\): expected None or an integer ≥ 0"):
+        fresh.reset(seed=seed)

@@ -8,10 +8,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.protocol import EffortModel
 from nbv_gym.metrics.effort import area_under
-from nbv_gym.team import TeamEnv, load_team_policy, run_team_episode
+from nbv_gym.team import EachRobot, TeamEnv, load_team_policy, run_team_episode
 from nbv_gym.team.episode import team_figures
+from nbv_gym.team.policies import TeamPolicyError
 from nbv_gym.team.simulator import Scanned
 
 
@@ -63,3 +65,16 @@ def test_a_team_of_three_explores_together_and_its_figures_follow_from_its_scans
     assert figures["overlap_rate"] > 0  # three robots from one spot see some cells twice
     again = run_team_episode(env, load_team_policy(name, 3), seed=6)
     assert again.scans == rows  # same seed, same bits
+
+
+@pytest.mark.parametrize("q_target", [float("nan"), -1.0, 0.0, 1.5, "0.5", True])
+def test_a_q_target_outside_0_1_is_refused_before_the_episode(q_target):
+    env = TeamEnv(world="pp1-cuboids", n_robots=2, time_budget_s=60.0)
+    with pytest.raises(ConfigError, match="q_target: "):
+        run_team_episode(env, load_team_policy("utility-frontier", 2), 0, q_target=q_target)
+
+
+def test_each_robot_with_one_policy_per_robot_only():
+    env = TeamEnv(world="pp1-cuboids", n_robots=3, time_budget_s=60.0)
+    with pytest.raises(TeamPolicyError, match="holds 2 robot policies for a team of 3"):
+        run_team_episode(env, EachRobot.of("closest-frontier", 2), 0)

@@ -8,9 +8,11 @@ import itertools
 import numpy as np
 import pytest
 
+from nbv_gym.core.errors import ConfigError
 from nbv_gym.team.policies import (
     EachRobot,
     HungarianFrontier,
+    TeamPolicyError,
     UtilityFrontier,
     assign_goals,
     load_team_policy,
@@ -142,3 +144,22 @@ def test_hungarian_frontier_leaves_no_robot_two_goals_with_fewer_goals_than_robo
     assert assigned.tolist() == [-1, 1, 0]  # 0.1 + 0.2, the least of the six
     valid = np.array([[True, False], [False, False], [True, False]])
     assert assign_goals(cost, valid).tolist() == [-1, -1, 0]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"beta": float("nan")}, "beta must be a finite number ≥ 0"),
+        ({"beta": -1.0}, "beta must be"),
+        ({"range_m": 0.0}, "range_m must be a finite number > 0"),
+        ({"range_m": float("inf")}, "range_m must be"),
+    ],
+)
+def test_utility_frontier_refuses_weights_that_rank_nothing(kwargs, message):
+    with pytest.raises(ConfigError, match=message):
+        UtilityFrontier(**kwargs)
+
+
+def test_each_robot_without_policies_is_refused():
+    with pytest.raises(TeamPolicyError, match="one single-robot policy per robot, got none"):
+        EachRobot([])

@@ -81,10 +81,19 @@ def test_bad_pool_world_names_are_refused_in_one_line():
         load_spec("random:wdie/3")
     with pytest.raises(ConfigError, match="the index must be below 100000"):
         load_spec("random:wide/heldout-100000")
-    with pytest.raises(UnknownNameError, match="Unknown world 'random:wide/x3'"):
-        load_spec("random:wide/x3")
+    for name in ("random:wide/x3", "random:wide/-1", "random:wide/heldout--1", "random:wide/",
+                 "random:wide/heldout-", "random:wide/1e3", "random:wide/\uff10", "random:wide/0/1"):  # fmt: skip
+        with pytest.raises(
+            ConfigError, match=r"is no pool world; a pool's world is random:<kind>/<k> or"
+        ):
+            load_spec(name)
     with pytest.raises(ConfigError, match="world_pool_size: must be from 1 to 100000"):
         WorldDistribution("wide", 100_001)
+
+
+def test_a_distribution_where_one_world_is_needed_names_its_worlds():
+    with pytest.raises(ConfigError, match=r"'random:wide' is a distribution, not one world; give"):
+        load_spec("random:wide")
 
 
 def test_unknown_distribution_suggests_the_near_miss():

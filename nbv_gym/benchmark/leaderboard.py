@@ -37,11 +37,17 @@ from typing import Any
 import numpy as np
 
 from nbv_gym.benchmark.figures import save_profiles, save_q_time
-from nbv_gym.benchmark.ranking import RANK_SPLITS, SPLIT_COLUMNS, SPLITS, Entry, ranked
-from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
-from nbv_gym.benchmark.suites import SHIFT_SPLIT
+from nbv_gym.benchmark.ranking import RANK_SPLITS, Entry, pareto_dominated, ranked
+from nbv_gym.benchmark.scorecard import decision_text, interval_text, load_scorecard
+from nbv_gym.benchmark.suites import SHIFT_SPLIT, SPLIT_LABELS
 from nbv_gym.core.errors import NbvGymError
-from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
+from nbv_gym.reporting.formatting import (
+    estimate_text,
+    markdown_code,
+    markdown_text,
+    number_text,
+    printable,
+)
 
 
 class LeaderboardError(NbvGymError):
@@ -320,11 +326,11 @@ def leaderboard_summary(
     header = [
         "rank",
         "policy",
-        SPLIT_COLUMNS[best.rank_split],
+        SPLIT_LABELS[best.rank_split].column,
         f"P(better than {best.label}, equal time)",
     ]
     if shift is not None:
-        header += [SPLIT_COLUMNS[SHIFT_SPLIT], _shift_title(entries, plain=True)]
+        header += [SPLIT_LABELS[SHIFT_SPLIT].column, _shift_title(entries, plain=True)]
     rows = [header]
     for rank, entry in [
         *((str(i + 1), e) for i, e in enumerate(players)),
@@ -444,7 +450,7 @@ def _tables(entries: list[Entry], best: Entry, improvements: tuple, rank: bool) 
     scores = [
         "rank",
         "policy",
-        *SPLIT_COLUMNS.values(),
+        *(labels.column for labels in SPLIT_LABELS.values()),
         f"P(better than {markdown_text(best.label)}, equal time)",
         *([_shift_title(entries)] if shift is not None else []),
     ]
@@ -466,27 +472,6 @@ def _tables(entries: list[Entry], best: Entry, improvements: tuple, rank: bool) 
             ),
         ]
     )
-
-
-def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
-    """Entry label → the label of an entry that dominates it on (IQM of Q at the time budget,
-    mean path) of the ranking split, the figures the effort table shows: Q ≥ and path ≤, one of
-    them strictly. Paths are compared to the metre, as the table shows them (a goal cell is
-    1 m: a few centimetres of mean path are no less effort). Entries without those figures are
-    left out."""
-    points = {}
-    for entry in entries:
-        means = entry.aggregates().get("means", {})
-        q, path = entry.effort().get("q_at_budget", {}).get("iqm"), means.get("path_length_m")
-        if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
-            points[entry.label] = (q, round(path))
-    out = {}
-    for label, (q, path) in points.items():
-        for other, (q2, path2) in points.items():
-            if other != label and q2 >= q and path2 <= path and (q2 > q or path2 < path):
-                out[label] = other
-                break
-    return out
 
 
 def _checked(entries: list[Entry], verified: list[str]) -> list[str]:
@@ -540,7 +525,7 @@ def _score_row(
     return [
         rank,
         _name(entry),
-        *(_split_cell(entry, split) for split in SPLITS),
+        *(_split_cell(entry, split) for split in SPLIT_LABELS),
         _poi_text(improvements.get(entry.label)),
         *([_shift_cells(entry, shift)[1]] if shift is not None else []),
     ]
@@ -556,7 +541,7 @@ def _split_cell(entry: Entry, split: str) -> str:
 
 def _poi_text(poi: Any) -> str:
     """``mean [low, high]`` of a ``P(better)``, or ``(baseline)`` for None."""
-    return "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]"
+    return "(baseline)" if poi is None else estimate_text(poi.mean, poi.low, poi.high, ".2f")
 
 
 def _shift_improvements(entries: list[Entry], shift: dict[str, Any] | None):
@@ -587,7 +572,6 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
 
     test = entry.aggregates()
     means, effort = test.get("means", {}), entry.effort()
-    decision = means.get("decision_time_s")
     at_budget = effort.get("q_at_budget")
     at_path = effort.get("q_at_path", {})
     return [
@@ -598,14 +582,10 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
             interval_text(at_path[f"{d:g}"], "iqm") if f"{d:g}" in at_path else "—"
             for d in MATCHED_PATHS_M
         ),
-        _fmt(means.get("path_length_m"), ".0f"),
-        _fmt(effort.get("elapsed_s"), ".0f"),
+        number_text(means.get("path_length_m"), ".0f"),
+        number_text(effort.get("elapsed_s"), ".0f"),
         f"dominated by {markdown_code(dominated[entry.label])}"
         if entry.label in dominated
         else "front",
-        _fmt(None if decision is None else 1000 * decision, ".2f"),
+        decision_text(means.get("decision_time_s")),
     ]
-
-
-def _fmt(value: Any, spec: str) -> str:
-    return "—" if value is None or not np.isfinite(value) else format(value, spec)

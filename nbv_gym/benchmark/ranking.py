@@ -1,5 +1,7 @@
-"""One scorecard on a leaderboard (:class:`Entry`), the splits a board shows and the order it
-ranks entries in: by the first of :data:`RANK_SPLITS` a scorecard has, oracles apart."""
+"""One scorecard on a leaderboard (:class:`Entry`) and the order a board ranks entries in: by
+the first of :data:`RANK_SPLITS` a scorecard has, oracles apart; which entries another dominates
+on (Q, path). The splits a board shows and their labels:
+:data:`~nbv_gym.benchmark.suites.SPLIT_LABELS`."""
 
 from __future__ import annotations
 
@@ -14,25 +16,6 @@ from nbv_gym.benchmark.suites import HEADLINE_SPLIT, SUITES
 #: else (a suite on your own worlds, ``nbv-gym score --world``, has no test split) the time task
 #: on its worlds.
 RANK_SPLITS = (HEADLINE_SPLIT, "time-benchmark")
-#: The splits shown, in order (the scores table's columns, the profile figure's panels), with
-#: the label of their score and what it charges.
-SPLITS = {
-    "time-test": "area under Q(t) / budget, test split (equal robot time)",
-    "time-shift": "area under Q(t) / budget, shift split (equal robot time)",
-    "time-benchmark": "area under Q(t) / budget, benchmark worlds (equal robot time)",
-    "test": "Q after the scans, test split (equal scans, travel free)",
-    "benchmark": "Q after the scans, benchmark worlds (equal scans, travel free)",
-    "explore": "Q_paper at 70 % discovered (the paper's protocol)",
-}
-#: Short column titles of :data:`SPLITS`.
-SPLIT_COLUMNS = {
-    "time-test": "equal time, test: IQM area under Q(t)",
-    "time-shift": "equal time, shift: IQM area under Q(t)",
-    "time-benchmark": "equal time, benchmark: IQM area under Q(t)",
-    "test": "equal scans (travel free), test: IQM Q",
-    "benchmark": "equal scans (travel free), benchmark: IQM Q",
-    "explore": "paper's protocol: IQM Q_paper@70 %",
-}
 
 
 @dataclass(frozen=True)
@@ -115,3 +98,24 @@ def ranked(entries: list[Entry]) -> tuple[list[Entry], list[Entry]]:
         sorted((e for e in entries if not e.oracle), key=key),
         sorted((e for e in entries if e.oracle), key=key),
     )
+
+
+def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
+    """Entry label → the label of an entry that dominates it on (IQM of Q at the time budget,
+    mean path) of the ranking split, the figures the effort table shows: Q ≥ and path ≤, one of
+    them strictly. Paths are compared to the metre, as the table shows them (a goal cell is
+    1 m: a few centimetres of mean path are no less effort). Entries without those figures are
+    left out."""
+    points = {}
+    for entry in entries:
+        means = entry.aggregates().get("means", {})
+        q, path = entry.effort().get("q_at_budget", {}).get("iqm"), means.get("path_length_m")
+        if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
+            points[entry.label] = (q, round(path))
+    out = {}
+    for label, (q, path) in points.items():
+        for other, (q2, path2) in points.items():
+            if other != label and q2 >= q and path2 <= path and (q2 > q or path2 < path):
+                out[label] = other
+                break
+    return out

@@ -49,13 +49,14 @@ from typing import Any
 
 import numpy as np
 
-from nbv_gym.benchmark.suites import PROTOCOL_VERSION, Suite
+from nbv_gym.benchmark.suites import METRIC_LABELS, PROTOCOL_VERSION, Suite
 from nbv_gym.benchmark.validation import (  # noqa: F401 (SCHEMA_PATH: re-exported)
     SCHEMA_PATH,
     ScorecardError,
     validate_scorecard,
 )
 from nbv_gym.core.jsonfiles import dumps_json
+from nbv_gym.reporting.formatting import estimate_text, number_text, undefined
 
 FORMAT = "nbv-gym scorecard"
 #: The optimality gap's target score: a perfect map.
@@ -348,7 +349,7 @@ def _effort_markdown(card: dict[str, Any]) -> list[str]:
             part["split"], part["task"],
             interval_text(at_budget, "iqm") if at_budget else "—",
             *(interval_text(at_path[f"{d:g}"], "iqm") for d in MATCHED_PATHS_M),
-            _fixed(effort["elapsed_s"], 0),
+            number_text(effort["elapsed_s"], ".0f"),
         ])  # fmt: skip
     if not rows:
         return []
@@ -373,46 +374,26 @@ def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
     return [
         part["split"],
         f"{part['task']} ({TASK_CHARGES[part['task']]})",
-        _METRIC_LABELS[agg["metric"]],
+        METRIC_LABELS[agg["metric"]],
         s["n"],
         interval_text(s, "iqm"),
         interval_text(s, "mean"),
-        _fixed(s["optimality_gap"]),
-        _percent(means["discovered"]),
-        _fixed(means["path_length_m"], 1),
-        _fixed(_ms(means["decision_time_s"]), 2),
+        number_text(s["optimality_gap"]),
+        number_text(means["discovered"], ".1%"),
+        number_text(means["path_length_m"], ".1f"),
+        decision_text(means["decision_time_s"]),
     ]
 
 
 def interval_text(summary: dict[str, Any], name: str, digits: int = 4) -> str:
     """``value [low, high]`` of ``summary[name]``, or a dash when undefined."""
     value, low, high = (summary.get(k) for k in (name, f"{name}_low", f"{name}_high"))
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return "—"
-    return f"{value:.{digits}f} [{_fixed(low, digits)}, {_fixed(high, digits)}]"
+    return estimate_text(value, low, high, f".{digits}f")
 
 
-_METRIC_LABELS = {
-    "q_time_auc": "area under Q(t) / budget",
-    "q": "Q after the budget",
-    "q_paper_70": "Q_paper at 70 %",
-}
-
-
-def _fixed(value: Any, digits: int = 4) -> str:
-    return "—" if _missing(value) else f"{value:.{digits}f}"
-
-
-def _percent(value: Any) -> str:
-    return "—" if _missing(value) else f"{value:.1%}"
-
-
-def _ms(value: Any) -> Any:
-    return None if _missing(value) else 1000 * value
-
-
-def _missing(value: Any) -> bool:
-    return value is None or (isinstance(value, float) and not math.isfinite(value))
+def decision_text(seconds: Any) -> str:
+    """A mean decision time in milliseconds (two decimals), or a dash when undefined."""
+    return number_text(None if undefined(seconds) else 1000 * seconds, ".2f")
 
 
 def _number(value: Any) -> float:
@@ -420,5 +401,5 @@ def _number(value: Any) -> float:
 
 
 def _mean(values: list[Any]) -> float:
-    finite = [float(v) for v in values if not _missing(v)]
+    finite = [float(v) for v in values if not undefined(v)]
     return float(np.mean(finite)) if finite else math.nan

@@ -66,10 +66,54 @@ BENCHMARK_WORLDS = tuple(
 #: The score of each task: the normalised area under Q(t) over the time budget; Q after the
 #: scan budget; Q_paper at the explore task's 70 % discovered.
 TASK_METRICS = {"time": "q_time_auc", "budget": "q", "explore": "q_paper_70"}
+#: How tables and figures name each score (:data:`TASK_METRICS`).
+METRIC_LABELS = {
+    "q_time_auc": "area under Q(t) / budget",
+    "q": "Q after the budget",
+    "q_paper_70": "Q_paper at 70 %",
+}
 #: The split whose score ranks the leaderboard.
 HEADLINE_SPLIT = "time-test"
 #: The split of the time task on worlds outside every training distribution, shown beside it.
 SHIFT_SPLIT = "time-shift"
+
+
+@dataclass(frozen=True)
+class SplitLabels:
+    """How the leaderboard names a split: ``score`` (its score and what it charges: a
+    performance profile's panel) and ``column`` (the scores table's short column title)."""
+
+    score: str
+    column: str
+
+
+#: The one table of the splits a leaderboard shows, in order (the scores table's columns, the
+#: profile figure's panels), with their labels.
+SPLIT_LABELS = {
+    "time-test": SplitLabels(
+        "area under Q(t) / budget, test split (equal robot time)",
+        "equal time, test: IQM area under Q(t)",
+    ),
+    "time-shift": SplitLabels(
+        "area under Q(t) / budget, shift split (equal robot time)",
+        "equal time, shift: IQM area under Q(t)",
+    ),
+    "time-benchmark": SplitLabels(
+        "area under Q(t) / budget, benchmark worlds (equal robot time)",
+        "equal time, benchmark: IQM area under Q(t)",
+    ),
+    "test": SplitLabels(
+        "Q after the scans, test split (equal scans, travel free)",
+        "equal scans (travel free), test: IQM Q",
+    ),
+    "benchmark": SplitLabels(
+        "Q after the scans, benchmark worlds (equal scans, travel free)",
+        "equal scans (travel free), benchmark: IQM Q",
+    ),
+    "explore": SplitLabels(
+        "Q_paper at 70 % discovered (the paper's protocol)", "paper's protocol: IQM Q_paper@70 %"
+    ),
+}
 
 
 @dataclass(frozen=True)

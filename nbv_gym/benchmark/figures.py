@@ -25,7 +25,8 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
     fig = figure(6.4, 4.4)
     ax = fig.subplots()
     for entry in ordered:
-        curve = entry.effort().get("q_time")
+        effort = entry.effort()
+        curve = effort["q_time"] if effort else None
         if not curve:
             continue
         colour, style = colours[entry.label], "--" if entry.oracle else "-"

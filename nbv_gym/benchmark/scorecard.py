@@ -43,12 +43,26 @@ import hashlib
 import math
 import re
 import time
+from collections.abc import Sequence
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from nbv_gym.benchmark.cardtypes import (
+    Aggregate,
+    Band,
+    Effort,
+    Metric,
+    PartDescription,
+    PolicyEntry,
+    RunEntry,
+    Scorecard,
+    Summary,
+    Timing,
+    value_of,
+)
 from nbv_gym.benchmark.suites import METRIC_LABELS, PROTOCOL_VERSION, Suite
 from nbv_gym.benchmark.validation import (  # noqa: F401 (SCHEMA_PATH: re-exported)
     SCHEMA_PATH,
@@ -77,7 +91,7 @@ BOOTSTRAP_SEED = 0
 TIME_METRIC = "q_time_auc"
 
 
-def policy_identity(name: str) -> dict[str, Any]:
+def policy_identity(name: str) -> PolicyEntry:
     """The ``policy`` entry of a scorecard for the policy ``name`` (loaded once here, so a bad
     name fails before any run): name, class, oracle flag and the hash of its code or model
     (:func:`policy_file`)."""
@@ -117,8 +131,8 @@ def file_hash(path: Path) -> str:
 
 
 def build_scorecard(
-    suite: Suite, policy: dict[str, Any], runs: list[dict[str, Any]], timing: dict[str, Any]
-) -> dict[str, Any]:
+    suite: Suite, policy: PolicyEntry, runs: list[RunEntry], timing: Timing
+) -> Scorecard:
     """The scorecard of ``policy`` (:func:`policy_identity`) with the figures ``runs`` of every run
     of ``suite`` (:func:`~nbv_gym.benchmark.suiterun.run_figures`)."""
     from nbv_gym.core.provenance import versions
@@ -139,7 +153,7 @@ def build_scorecard(
     }
 
 
-def join_scorecards(suite: Suite, cards: list[dict[str, Any]]) -> dict[str, Any]:
+def join_scorecards(suite: Suite, cards: list[Scorecard]) -> Scorecard:
     """One scorecard of the parts of ``suite`` that ``cards`` hold between them — the cards of
     one policy, of one protocol version, each scored on some of the suite's parts
     (:meth:`~nbv_gym.benchmark.suites.Suite.only`): its runs in the suite's order, its
@@ -167,39 +181,41 @@ def join_scorecards(suite: Suite, cards: list[dict[str, Any]]) -> dict[str, Any]
     runs = [
         run for split in joined.splits for c in cards for run in c["runs"] if run["split"] == split
     ]
-    timing = {"wall_time_s": sum(c["timing"]["wall_time_s"] for c in cards),
+    timing: Timing = {"wall_time_s": sum(c["timing"]["wall_time_s"] for c in cards),
               "workers": cards[-1]["timing"]["workers"]}  # fmt: skip
     return build_scorecard(joined, first["policy"], runs, timing)
 
 
-def card_aggregates(runs: list[dict[str, Any]], parts: list[dict[str, Any]]) -> dict[str, Any]:
+def card_aggregates(
+    runs: Sequence[RunEntry], parts: Sequence[PartDescription]
+) -> dict[str, Aggregate]:
     """The ``aggregates`` of a scorecard: per part of the suite (its ``split`` and ``metric``,
     as in the card's ``suite.parts``), :func:`aggregate` of its runs. The one place they are
     computed: :mod:`nbv_gym.benchmark.validation` recomputes a loaded card's with it."""
     return {part["split"]: aggregate(runs, part["split"], part["metric"]) for part in parts}
 
 
-def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
+def aggregate(runs: Sequence[RunEntry], split: str, metric: Metric) -> Aggregate:
     """Every aggregate of one split: ``metric`` summarised over all runs and per asset type
     (:func:`summary`), the plain means of :data:`MEAN_FIGURES`, and, for runs that carry Q over
     effort (protocol version 2 on), ``effort``: Q at matched path, Q at the time budget (time
     task), the mean elapsed time and the mean curves (:func:`effort_aggregates`)."""
     mine = [run for run in runs if run["split"] == split]
     assets = list(dict.fromkeys(run["asset"] for run in mine))
-    out = {
+    out: Aggregate = {
         "metric": metric,
         "all": summary(mine, metric, f"{split}/all"),
         "by_asset": {
             a: summary([r for r in mine if r["asset"] == a], metric, f"{split}/{a}") for a in assets
         },
-        "means": {name: _mean([run[name] for run in mine]) for name in MEAN_FIGURES},
+        "means": {name: _mean([value_of(run, name) for run in mine]) for name in MEAN_FIGURES},
     }
     if mine and all("q_path" in run for run in mine):
         out["effort"] = effort_aggregates(mine, split, metric)
     return out
 
 
-def effort_aggregates(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
+def effort_aggregates(runs: Sequence[RunEntry], split: str, metric: Metric) -> Effort:
     """Over effort, for :func:`aggregate`: ``q_at_path`` (per matched path in metres, the
     :func:`summary` of Q there), ``q_at_budget`` (time task: the summary of the final Q, which
     is Q at the time budget; else None), ``elapsed_s`` (mean), and ``q_time``/``q_path``: the
@@ -207,22 +223,22 @@ def effort_aggregates(runs: list[dict[str, Any]], split: str, metric: str) -> di
     ``high``)."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M, PATH_GRID_M
 
-    at_path = {}
+    at_path: dict[str, Summary] = {}
     for distance in MATCHED_PATHS_M:
         index = PATH_GRID_M.index(distance)
-        values = [run["q_path"][index] for run in runs]
+        values = [value_of(run, "q_path")[index] for run in runs]
         at_path[f"{distance:g}"] = summary(runs, "q_path", f"{split}/path{distance:g}", values)
     timed = metric == TIME_METRIC
     return {
         "q_at_path": at_path,
         "q_at_budget": summary(runs, "q", f"{split}/budget") if timed else None,
-        "elapsed_s": _mean([run["elapsed_s"] for run in runs]),
-        "q_time": _band([run["q_time"] for run in runs]),
-        "q_path": _band([run["q_path"] for run in runs]),
+        "elapsed_s": _mean([value_of(run, "elapsed_s") for run in runs]),
+        "q_time": _band([value_of(run, "q_time") for run in runs]),
+        "q_path": _band([value_of(run, "q_path") for run in runs]),
     }
 
 
-def _band(curves: list[list[float]]) -> dict[str, list[float]]:
+def _band(curves: list[list[float]]) -> Band:
     """Mean and 25th / 75th percentiles of equal-length ``curves``, point by point."""
     stack = np.asarray(curves, dtype=float)
     low, high = np.percentile(stack, [25, 75], axis=0)
@@ -230,29 +246,32 @@ def _band(curves: list[list[float]]) -> dict[str, list[float]]:
 
 
 def summary(
-    runs: list[dict[str, Any]], metric: str, label: str, values: list[Any] | None = None
-) -> dict[str, Any]:
+    runs: Sequence[RunEntry], metric: str, label: str, values: list[Any] | None = None
+) -> Summary:
     """IQM, mean and optimality gap of ``metric`` over ``runs`` (or of ``values``, one per run,
     when given), each with its 95 % stratified bootstrap interval (strata: world × noise level;
     ``label`` seeds the bootstrap); ``n``: runs with a value."""
     from nbv_gym.reporting.inference import iqm, optimality_gap, stratified_interval
 
-    given = values if values is not None else [run[metric] for run in runs]
+    given = values if values is not None else [value_of(run, metric) for run in runs]
     numbers = np.array([_number(value) for value in given], dtype=float)
     strata = [(run["world"], run["noise"]) for run in runs]
     seed = int.from_bytes(hashlib.sha256(label.encode()).digest()[:4], "big")
     rng = np.random.default_rng([BOOTSTRAP_SEED, seed])
     gap = partial(optimality_gap, target=TARGET_SCORE)
-    out: dict[str, Any] = {"n": int(np.isfinite(numbers).sum())}
-    for name, statistic in (("iqm", iqm), ("mean", np.mean), ("optimality_gap", gap)):
-        interval = stratified_interval(numbers, strata, statistic, rng)
-        out.update(
-            {name: interval.mean, f"{name}_low": interval.low, f"{name}_high": interval.high}
-        )
-    return out
+    iqm_, mean, gap_ = (
+        stratified_interval(numbers, strata, statistic, rng) for statistic in (iqm, np.mean, gap)
+    )  # drawn in this order: the intervals depend on it
+    return {
+        "n": int(np.isfinite(numbers).sum()),
+        "iqm": iqm_.mean, "iqm_low": iqm_.low, "iqm_high": iqm_.high,
+        "mean": mean.mean, "mean_low": mean.low, "mean_high": mean.high,
+        "optimality_gap": gap_.mean, "optimality_gap_low": gap_.low,
+        "optimality_gap_high": gap_.high,
+    }  # fmt: skip
 
 
-def write_scorecard(card: dict[str, Any], out: Path) -> tuple[Path, Path]:
+def write_scorecard(card: Scorecard, out: Path) -> tuple[Path, Path]:
     """Write ``scorecard.json`` (strict JSON) and ``scorecard.md`` into ``out``; their paths."""
     from nbv_gym.core.outputs import write_text
 
@@ -278,7 +297,7 @@ def _one_line(match: re.Match[str]) -> str:
     return "[" + re.sub(r",\s+", ", ", match.group(1)) + "]"
 
 
-def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
+def load_scorecard(path: str | Path, recompute: bool = True) -> Scorecard:
     """The scorecard in ``path``, validated (:func:`~nbv_gym.benchmark.validation.validate_scorecard`:
     schema, runs and, if ``recompute``, the aggregates recomputed from the runs);
     :class:`ScorecardError` if it is not one or fails."""
@@ -294,7 +313,7 @@ def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
     return validate_scorecard(card, path, card_aggregates if recompute else None)
 
 
-def scorecard_markdown(card: dict[str, Any]) -> str:
+def scorecard_markdown(card: Scorecard) -> str:
     """A short Markdown summary: identity, then per split its score (IQM and mean with 95 %
     intervals, optimality gap) overall and per asset type."""
     from nbv_gym.reporting.formatting import markdown_code, markdown_table
@@ -333,7 +352,7 @@ def scorecard_markdown(card: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _effort_markdown(card: dict[str, Any]) -> list[str]:
+def _effort_markdown(card: Scorecard) -> list[str]:
     """The effort section of :func:`scorecard_markdown`: per split, Q at the time budget and at
     matched path (IQM [95 % interval]) and the mean elapsed time ([] for cards without it)."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
@@ -366,7 +385,7 @@ def _effort_markdown(card: dict[str, Any]) -> list[str]:
     ]
 
 
-def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
+def _split_row(part: PartDescription, agg: Aggregate) -> list[Any]:
     """One split's row of the scorecard's Markdown table."""
     from nbv_gym.core.protocol import TASK_CHARGES
 
@@ -385,7 +404,7 @@ def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
     ]
 
 
-def interval_text(summary: dict[str, Any], name: str, digits: int = 4) -> str:
+def interval_text(summary: Summary, name: str, digits: int = 4) -> str:
     """``value [low, high]`` of ``summary[name]``, or a dash when undefined."""
     value, low, high = (summary.get(k) for k in (name, f"{name}_low", f"{name}_high"))
     return estimate_text(value, low, high, f".{digits}f")

@@ -54,6 +54,7 @@ from nbv_gym.benchmark.cardtypes import (
     Aggregate,
     Band,
     Effort,
+    Figure,
     Metric,
     PartDescription,
     PolicyEntry,
@@ -226,19 +227,19 @@ def effort_aggregates(runs: Sequence[RunEntry], split: str, metric: Metric) -> E
     at_path: dict[str, Summary] = {}
     for distance in MATCHED_PATHS_M:
         index = PATH_GRID_M.index(distance)
-        values = [value_of(run, "q_path")[index] for run in runs]
+        values = [run["q_path"][index] for run in runs]
         at_path[f"{distance:g}"] = summary(runs, "q_path", f"{split}/path{distance:g}", values)
     timed = metric == TIME_METRIC
     return {
         "q_at_path": at_path,
         "q_at_budget": summary(runs, "q", f"{split}/budget") if timed else None,
-        "elapsed_s": _mean([value_of(run, "elapsed_s") for run in runs]),
-        "q_time": _band([value_of(run, "q_time") for run in runs]),
-        "q_path": _band([value_of(run, "q_path") for run in runs]),
+        "elapsed_s": _mean([run["elapsed_s"] for run in runs]),
+        "q_time": _band([run["q_time"] for run in runs]),
+        "q_path": _band([run["q_path"] for run in runs]),
     }
 
 
-def _band(curves: list[list[float]]) -> Band:
+def _band(curves: Sequence[Sequence[Figure]]) -> Band:
     """Mean and 25th / 75th percentiles of equal-length ``curves``, point by point."""
     stack = np.asarray(curves, dtype=float)
     low, high = np.percentile(stack, [25, 75], axis=0)

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nbv_gym.benchmark.ranking import SPLITS, Entry, ranked, split_metric
+from nbv_gym.benchmark.ranking import Entry, ranked, split_metric
+from nbv_gym.benchmark.suites import SPLIT_LABELS
 from nbv_gym.reporting.formatting import printable
 
 
@@ -24,7 +25,8 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
     fig = figure(6.4, 4.4)
     ax = fig.subplots()
     for entry in ordered:
-        curve = entry.effort().get("q_time")
+        effort = entry.effort()
+        curve = effort["q_time"] if effort else None
         if not curve:
             continue
         colour, style = colours[entry.label], "--" if entry.oracle else "-"
@@ -41,8 +43,8 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
 
 
 def save_profiles(entries: list[Entry], path: Path) -> Path:
-    """Draw the performance profiles of every entry (one panel per :data:`SPLITS`) to
-    ``path`` (PNG) and its SVG twin."""
+    """Draw the performance profiles of every entry (one panel per split of
+    :data:`~nbv_gym.benchmark.suites.SPLIT_LABELS`) to ``path`` (PNG) and its SVG twin."""
     from nbv_gym.reporting.formatting import figure, policy_colours
     from nbv_gym.reporting.html import save_figure
     from nbv_gym.reporting.inference import performance_profile
@@ -50,9 +52,9 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
     players, oracles = ranked(entries)
     ordered = [*players, *oracles]
     colours = policy_colours([e.label for e in ordered])
-    fig = figure(5.0 * len(SPLITS), 4.4)
-    axes = fig.subplots(1, len(SPLITS), squeeze=False)[0]
-    for ax, (split, label) in zip(axes, SPLITS.items(), strict=True):
+    fig = figure(5.0 * len(SPLIT_LABELS), 4.4)
+    axes = fig.subplots(1, len(SPLIT_LABELS), squeeze=False)[0]
+    for ax, (split, labels) in zip(axes, SPLIT_LABELS.items(), strict=True):
         metric = split_metric(entries, split)
         data = {e.label: e.runs(split, metric) for e in ordered}
         finite = np.concatenate([v[np.isfinite(v)] for v, _ in data.values()] + [np.zeros(1)])
@@ -67,7 +69,7 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
             colour = colours[entry.label]
             ax.plot(tau, fraction, style, color=colour, label=printable(entry.label), lw=1.4)
             ax.fill_between(tau, low, high, color=colour, alpha=0.15, linewidth=0)
-        ax.set_xlabel(f"τ ({label})")
+        ax.set_xlabel(f"τ ({labels.score})")
         ax.set_ylim(0, 1.02)
         ax.grid(alpha=0.3)
     axes[0].set_ylabel("fraction of runs with score > τ")

@@ -29,19 +29,33 @@ that references for this version are pending.
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
+from nbv_gym.benchmark.cardtypes import Scorecard, value_of
 from nbv_gym.benchmark.figures import save_profiles, save_q_time
-from nbv_gym.benchmark.ranking import RANK_SPLITS, SPLIT_COLUMNS, SPLITS, Entry, ranked
-from nbv_gym.benchmark.scorecard import interval_text, load_scorecard
-from nbv_gym.benchmark.suites import SHIFT_SPLIT
+from nbv_gym.benchmark.ranking import (
+    RANK_SPLITS,
+    Entry,
+    baseline,
+    improvement,
+    pareto_dominated,
+    ranked,
+)
+from nbv_gym.benchmark.scorecard import decision_text, interval_text, load_scorecard
+from nbv_gym.benchmark.suites import SHIFT_SPLIT, SPLIT_LABELS
 from nbv_gym.core.errors import NbvGymError
-from nbv_gym.reporting.formatting import markdown_code, markdown_text, printable
+from nbv_gym.reporting.formatting import (
+    estimate_text,
+    markdown_code,
+    markdown_text,
+    number_text,
+    printable,
+)
+
+if TYPE_CHECKING:
+    from nbv_gym.reporting.inference import Interval
 
 
 class LeaderboardError(NbvGymError):
@@ -106,7 +120,7 @@ def _scorecard_paths(paths: list[str | Path]) -> list[Path]:
     return list(seen.values())
 
 
-def _given_card(path: Path) -> dict[str, Any]:
+def _given_card(path: Path) -> Scorecard:
     """The scorecard at ``path`` (validated on load); :class:`LeaderboardError` if it lacks the
     split that ranks the leaderboard."""
     card = load_scorecard(path)
@@ -120,7 +134,7 @@ def _given_card(path: Path) -> dict[str, Any]:
     return card
 
 
-def _check_shipped_suite(card: dict[str, Any], path: Path) -> None:
+def _check_shipped_suite(card: Scorecard, path: Path) -> None:
     """:class:`LeaderboardError` unless a scorecard that names a shipped suite records that
     suite as this nbv-gym defines it (its hash, seed and parts: an edited budget or a dropped
     repeat with the hash kept, or a card of another nbv-gym version, would rank otherwise)."""
@@ -130,7 +144,7 @@ def _check_shipped_suite(card: dict[str, Any], path: Path) -> None:
     expected = shipped_identity(recorded)
     if expected is None or recorded == expected:
         return
-    field = next(k for k in expected if recorded.get(k) != expected[k])
+    field = next(k for k in expected if recorded.get(k) != value_of(expected, k))
     raise LeaderboardError(
         f"{path}: its suite {recorded['name']!r} differs from this nbv-gym's (suite.{field}); "
         f"score the policy again with this nbv-gym (`nbv-gym score POLICY --suite "
@@ -214,29 +228,6 @@ def _sources(sources: list[str]) -> str:
     return unique[0] if len(unique) == 1 else f"{unique[0]} and {len(unique) - 1} more"
 
 
-def baseline(entries: list[Entry], split: str | None = None) -> Entry:
-    """The best reference that is not an oracle (or, with no such reference, the best entry that
-    is not an oracle, or the best entry), among the entries that hold ``split`` if given (the
-    first entry when none does)."""
-    holding = [e for e in entries if split is None or e.has(split)] or entries
-    players, oracles = ranked(holding)
-    references = [e for e in players if e.reference]
-    return (references or players or oracles)[0]
-
-
-def improvement(entry: Entry, best: Entry, seed: int = 0, split: str | None = None):
-    """``P(entry > best)`` on the score of ``split`` (default: the ranking split) with its
-    stratified bootstrap interval."""
-    from nbv_gym.reporting.inference import probability_of_improvement_interval
-
-    split = split or entry.rank_split
-    a, tasks_a = entry.runs(split, entry.metric(split))
-    b, tasks_b = best.runs(split, best.metric(split))
-    label = int.from_bytes(hashlib.sha256(entry.label.encode()).digest()[:4], "big")
-    rng = np.random.default_rng([seed, label])
-    return probability_of_improvement_interval(a, tasks_a, b, tasks_b, rng)
-
-
 @dataclass(frozen=True)
 class Leaderboard:
     """What :func:`build_leaderboard` wrote (``markdown``, ``html``) and the ranking as plain
@@ -284,7 +275,9 @@ def build_leaderboard(
     return Leaderboard(path, write_html(path), summary)
 
 
-def improvements_over_baseline(entries: list[Entry], split: str | None = None) -> dict[str, Any]:
+def improvements_over_baseline(
+    entries: list[Entry], split: str | None = None
+) -> dict[str, Interval]:
     """``P(entry > baseline)`` with its interval (:func:`improvement`) on ``split`` (default:
     the ranking split) per entry label that holds it; the baseline itself is left out."""
     best = baseline(entries, split)
@@ -305,8 +298,8 @@ def shift_shown(entries: list[Entry]) -> bool:
 
 def leaderboard_summary(
     entries: list[Entry],
-    improvements: dict[str, Any] | None = None,
-    shift: dict[str, Any] | None = None,
+    improvements: dict[str, Interval] | None = None,
+    shift: dict[str, Interval] | None = None,
 ) -> str:
     """The ranking as a plain-text table: rank, policy, the ranking score with its interval,
     ``P(better than baseline)``, and the shift split's score and ``P(better)`` when shown
@@ -320,11 +313,11 @@ def leaderboard_summary(
     header = [
         "rank",
         "policy",
-        SPLIT_COLUMNS[best.rank_split],
+        SPLIT_LABELS[best.rank_split].column,
         f"P(better than {best.label}, equal time)",
     ]
     if shift is not None:
-        header += [SPLIT_COLUMNS[SHIFT_SPLIT], _shift_title(entries, plain=True)]
+        header += [SPLIT_LABELS[SHIFT_SPLIT].column, _shift_title(entries, plain=True)]
     rows = [header]
     for rank, entry in [
         *((str(i + 1), e) for i, e in enumerate(players)),
@@ -351,9 +344,9 @@ def leaderboard_summary(
 
 def leaderboard_markdown(
     entries: list[Entry],
-    improvements: dict[str, Any] | None = None,
+    improvements: dict[str, Interval] | None = None,
     pending: str = "",
-    shift: dict[str, Any] | None = None,
+    shift: dict[str, Interval] | None = None,
     verified: list[str] | None = None,
 ) -> str:
     """The leaderboard as Markdown: the ranked scores, the effort behind them, the oracles apart,
@@ -433,7 +426,12 @@ def _pending_references(entries: list[Entry]) -> str:
     return references_note(entries[0].card["suite"]["name"])
 
 
-def _tables(entries: list[Entry], best: Entry, improvements: tuple, rank: bool) -> str:
+def _tables(
+    entries: list[Entry],
+    best: Entry,
+    improvements: tuple[dict[str, Interval], dict[str, Interval] | None],
+    rank: bool,
+) -> str:
     """The scores table and the effort table of ``entries``; ``improvements``: (on the ranking
     split, on the shift split or None when not shown)."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
@@ -444,7 +442,7 @@ def _tables(entries: list[Entry], best: Entry, improvements: tuple, rank: bool) 
     scores = [
         "rank",
         "policy",
-        *SPLIT_COLUMNS.values(),
+        *(labels.column for labels in SPLIT_LABELS.values()),
         f"P(better than {markdown_text(best.label)}, equal time)",
         *([_shift_title(entries)] if shift is not None else []),
     ]
@@ -466,27 +464,6 @@ def _tables(entries: list[Entry], best: Entry, improvements: tuple, rank: bool) 
             ),
         ]
     )
-
-
-def pareto_dominated(entries: list[Entry]) -> dict[str, str]:
-    """Entry label → the label of an entry that dominates it on (IQM of Q at the time budget,
-    mean path) of the ranking split, the figures the effort table shows: Q ≥ and path ≤, one of
-    them strictly. Paths are compared to the metre, as the table shows them (a goal cell is
-    1 m: a few centimetres of mean path are no less effort). Entries without those figures are
-    left out."""
-    points = {}
-    for entry in entries:
-        means = entry.aggregates().get("means", {})
-        q, path = entry.effort().get("q_at_budget", {}).get("iqm"), means.get("path_length_m")
-        if q is not None and path is not None and np.isfinite(q) and np.isfinite(path):
-            points[entry.label] = (q, round(path))
-    out = {}
-    for label, (q, path) in points.items():
-        for other, (q2, path2) in points.items():
-            if other != label and q2 >= q and path2 <= path and (q2 > q or path2 < path):
-                out[label] = other
-                break
-    return out
 
 
 def _checked(entries: list[Entry], verified: list[str]) -> list[str]:
@@ -532,7 +509,7 @@ def _name(entry: Entry) -> str:
 
 
 def _score_row(
-    rank: str, entry: Entry, improvements: dict[str, Any], shift: dict[str, Any] | None
+    rank: str, entry: Entry, improvements: dict[str, Interval], shift: dict[str, Interval] | None
 ) -> list[Any]:
     """One row of the scores table: the score of every split (``pending`` for a split of its
     suite the scorecard lacks), ``P(better than baseline)`` and, when shown, on the shift
@@ -540,7 +517,7 @@ def _score_row(
     return [
         rank,
         _name(entry),
-        *(_split_cell(entry, split) for split in SPLITS),
+        *(_split_cell(entry, split) for split in SPLIT_LABELS),
         _poi_text(improvements.get(entry.label)),
         *([_shift_cells(entry, shift)[1]] if shift is not None else []),
     ]
@@ -550,16 +527,18 @@ def _split_cell(entry: Entry, split: str) -> str:
     """The IQM [interval] of ``split``; ``pending`` if the entry's suite has it and the
     scorecard does not; ``—`` otherwise."""
     if entry.has(split):
-        return interval_text(entry.aggregates(split)["all"], "iqm")
+        return interval_text(entry.card["aggregates"][split]["all"], "iqm")
     return "pending" if split in entry.suite_splits else "—"
 
 
-def _poi_text(poi: Any) -> str:
+def _poi_text(poi: Interval | None) -> str:
     """``mean [low, high]`` of a ``P(better)``, or ``(baseline)`` for None."""
-    return "(baseline)" if poi is None else f"{poi.mean:.2f} [{poi.low:.2f}, {poi.high:.2f}]"
+    return "(baseline)" if poi is None else estimate_text(poi.mean, poi.low, poi.high, ".2f")
 
 
-def _shift_improvements(entries: list[Entry], shift: dict[str, Any] | None):
+def _shift_improvements(
+    entries: list[Entry], shift: dict[str, Interval] | None
+) -> dict[str, Interval] | None:
     """``P(better)`` on the shift split per entry (``shift`` if given), or None when the board
     does not show it (:func:`shift_shown`)."""
     if not shift_shown(entries):
@@ -573,7 +552,7 @@ def _shift_title(entries: list[Entry], plain: bool = False) -> str:
     return f"P(better than {best if plain else markdown_text(best)}, shift)"
 
 
-def _shift_cells(entry: Entry, shift: dict[str, Any]) -> tuple[str, str]:
+def _shift_cells(entry: Entry, shift: dict[str, Interval]) -> tuple[str, str]:
     """(score, ``P(better)``) of ``entry`` on the shift split: ``pending`` both when its
     scorecard lacks the split its suite has."""
     if not entry.has(SHIFT_SPLIT):
@@ -585,11 +564,10 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
     """One row of the effort table."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
 
-    test = entry.aggregates()
-    means, effort = test.get("means", {}), entry.effort()
-    decision = means.get("decision_time_s")
-    at_budget = effort.get("q_at_budget")
-    at_path = effort.get("q_at_path", {})
+    test, effort = entry.aggregates(), entry.effort()
+    means = test["means"] if test else {}
+    at_budget = effort["q_at_budget"] if effort else None
+    at_path = effort["q_at_path"] if effort else {}
     return [
         rank,
         _name(entry),
@@ -598,14 +576,10 @@ def _effort_row(rank: str, entry: Entry, dominated: dict[str, str]) -> list[Any]
             interval_text(at_path[f"{d:g}"], "iqm") if f"{d:g}" in at_path else "—"
             for d in MATCHED_PATHS_M
         ),
-        _fmt(means.get("path_length_m"), ".0f"),
-        _fmt(effort.get("elapsed_s"), ".0f"),
+        number_text(means.get("path_length_m"), ".0f"),
+        number_text(effort["elapsed_s"] if effort else None, ".0f"),
         f"dominated by {markdown_code(dominated[entry.label])}"
         if entry.label in dominated
         else "front",
-        _fmt(None if decision is None else 1000 * decision, ".2f"),
+        decision_text(means.get("decision_time_s")),
     ]
-
-
-def _fmt(value: Any, spec: str) -> str:
-    return "—" if value is None or not np.isfinite(value) else format(value, spec)

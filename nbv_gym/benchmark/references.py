@@ -34,8 +34,8 @@ import shutil
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
+from nbv_gym.benchmark.cardtypes import Scorecard
 from nbv_gym.benchmark.scorecard import dumps_strict, join_scorecards, load_scorecard
 from nbv_gym.benchmark.suites import (
     PROTOCOL_VERSION,
@@ -92,14 +92,14 @@ def reference_suites() -> list[str]:
     return [name for name in SUITES if any((REFERENCE_DIR / name).glob("*.json"))]
 
 
-def load_references(suite: str = REFERENCE_SUITE.name) -> list[dict[str, Any]]:
+def load_references(suite: str = REFERENCE_SUITE.name) -> list[Scorecard]:
     """The shipped reference scorecards of ``suite``, in :func:`shipped_policies` order (those
     that exist; none for a suite without references)."""
     paths = [reference_path(n, suite) for n in shipped_policies()]
     return [load_scorecard(path, recompute=False) for path in paths if path.is_file()]  # tested
 
 
-def is_current(card: dict[str, Any], suite: str = REFERENCE_SUITE.name) -> bool:
+def is_current(card: Scorecard, suite: str = REFERENCE_SUITE.name) -> bool:
     """Whether the reference scorecard ``card`` belongs to this package's protocol version and
     to ``suite`` as it is now — every part it holds is the suite's part of that split, hash and
     all (a stale one is never mixed into a leaderboard); it may lack parts
@@ -112,7 +112,7 @@ def is_current(card: dict[str, Any], suite: str = REFERENCE_SUITE.name) -> bool:
     )
 
 
-def missing_parts(card: dict[str, Any]) -> list[str]:
+def missing_parts(card: Scorecard) -> list[str]:
     """The splits of the shipped suite the scorecard ``card`` names that it does not hold (none
     for a suite that is not shipped)."""
     suite = SUITES.get(card["suite"]["name"])
@@ -122,7 +122,7 @@ def missing_parts(card: dict[str, Any]) -> list[str]:
 
 def current_references(
     suite: str = REFERENCE_SUITE.name,
-) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+) -> tuple[list[Scorecard], list[Scorecard]]:
     """(current, stale): the shipped reference scorecards of ``suite`` split by
     :func:`is_current`."""
     cards = load_references(suite)
@@ -131,7 +131,7 @@ def current_references(
     ]
 
 
-def pending_note(stale: list[dict[str, Any]], suite: str = REFERENCE_SUITE.name) -> str:
+def pending_note(stale: list[Scorecard], suite: str = REFERENCE_SUITE.name) -> str:
     """One sentence saying that references of ``suite`` for this protocol version are pending,
     naming the versions the ``stale`` ones were scored under ("" if none is stale)."""
     if not stale:
@@ -147,7 +147,7 @@ def pending_note(stale: list[dict[str, Any]], suite: str = REFERENCE_SUITE.name)
     )
 
 
-def missing_note(cards: list[dict[str, Any]]) -> str:
+def missing_note(cards: list[Scorecard]) -> str:
     """One sentence per missing split naming the references ``cards`` that lack it (""
     when none does): what the leaderboard and the tests say while a new part is pending."""
     missing: dict[str, list[str]] = {}

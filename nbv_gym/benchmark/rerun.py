@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from nbv_gym.benchmark.cardtypes import RunEntry, Scorecard
 from nbv_gym.benchmark.suites import Suite
 from nbv_gym.core.errors import NbvGymError
 
@@ -37,7 +38,7 @@ class VerifyError(NbvGymError):
     """A scorecard whose sampled runs do not reproduce here, or cannot be run again."""
 
 
-def run_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | None:
+def run_difference(stored: RunEntry, now: RunEntry) -> str | None:
     """The figures of the ``stored`` run (a scorecard's) that its re-run ``now`` does not give
     bit for bit, each as ``"FIELD: stored X, re-run Y"`` (a curve's first differing point),
     joined by "; "; None if every figure agrees (timings aside; a figure the stored run lacks,
@@ -80,7 +81,7 @@ def _show(value: Any, where: str) -> str:
     return repr(value)
 
 
-def sample_runs(card: dict[str, Any], n: int, seed: int) -> list[int]:
+def sample_runs(card: Scorecard, n: int, seed: int) -> list[int]:
     """The indices (sorted) of ``n`` runs of ``card`` (all when it holds fewer), drawn without
     replacement by a generator seeded with ``seed``: the same seed, the same choice."""
     count = len(card["runs"])
@@ -89,7 +90,7 @@ def sample_runs(card: dict[str, Any], n: int, seed: int) -> list[int]:
 
 
 def verify_card(
-    card: dict[str, Any],
+    card: Scorecard,
     suite: Suite,
     source: str,
     indices: list[int],
@@ -120,8 +121,8 @@ def verify_card(
 
 
 def rerun(
-    card: dict[str, Any], suite: Suite, sources: dict[str, str], run: dict[str, Any]
-) -> tuple[dict[str, Any], bool]:
+    card: Scorecard, suite: Suite, sources: dict[str, str], run: RunEntry
+) -> tuple[RunEntry, bool]:
     """The scorecard figures of ``run`` (of ``card``, on ``suite`` whose worlds ``sources``
     names) run again here, and whether the policy ran as an oracle."""
     from nbv_gym.benchmark.suiterun import part_config, run_figures
@@ -147,7 +148,7 @@ def rerun(
     return run_figures(part, outcome), bool(outcome["run"]["oracle"])
 
 
-def _check_policy_code(card: dict[str, Any], source: str) -> None:
+def _check_policy_code(card: Scorecard, source: str) -> None:
     """:class:`VerifyError` unless the card's policy loads here from the very code it was scored
     with (its ``code_hash``): a re-run of other code proves nothing about the card."""
     from nbv_gym.benchmark.scorecard import file_hash, policy_file
@@ -164,7 +165,7 @@ def _check_policy_code(card: dict[str, Any], source: str) -> None:
         )
 
 
-def _describe(index: int, run: dict[str, Any]) -> str:
+def _describe(index: int, run: RunEntry) -> str:
     return (
         f"runs[{index}] (split {run['split']}, world {run['world']}, noise {run['noise']}, "
         f"repeat {run['repeat']})"

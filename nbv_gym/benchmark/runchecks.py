@@ -26,8 +26,8 @@ a re-run shows that (``nbv-gym leaderboard --verify``, :mod:`nbv_gym.benchmark.r
 from __future__ import annotations
 
 from itertools import pairwise
-from typing import Any
 
+from nbv_gym.benchmark.cardtypes import PartEntry, RunEntry, Scorecard, value_of
 from nbv_gym.benchmark.curves import CURVE_DECIMALS, PATH_GRID_M, TIME_GRID_S
 from nbv_gym.core.protocol import DISCOVERED_TARGET, EffortModel
 
@@ -35,7 +35,7 @@ from nbv_gym.core.protocol import DISCOVERED_TARGET, EffortModel
 AREA_SLACK = 1e-6
 
 
-def inconsistent_run(card: dict[str, Any]) -> tuple[int, str] | None:
+def inconsistent_run(card: Scorecard) -> tuple[int, str] | None:
     """The index of the first run of ``card`` (runs already matched to the suite's parts) that
     disagrees with itself and what disagrees (:func:`run_problem`); None if none does."""
     parts = {part["split"]: part for part in card["suite"]["parts"]}
@@ -46,7 +46,7 @@ def inconsistent_run(card: dict[str, Any]) -> tuple[int, str] | None:
     return None
 
 
-def run_problem(run: dict[str, Any], part: dict[str, Any]) -> str | None:
+def run_problem(run: RunEntry, part: PartEntry) -> str | None:
     """What is inconsistent in ``run`` (a scorecard run of ``part``), naming the field; None if
     nothing. Figures a run does not carry (protocol version 1) are not checked."""
     for check in (_clock, _budget, _curves, _area, _target):
@@ -56,7 +56,7 @@ def run_problem(run: dict[str, Any], part: dict[str, Any]) -> str | None:
     return None
 
 
-def _clock(run: dict[str, Any], part: dict[str, Any]) -> str | None:
+def _clock(run: RunEntry, part: PartEntry) -> str | None:
     if "elapsed_s" not in run:
         return None
     effort = EffortModel()  # the suites' (nbv-gym score has no effort options)
@@ -70,7 +70,7 @@ def _clock(run: dict[str, Any], part: dict[str, Any]) -> str | None:
     return None
 
 
-def _budget(run: dict[str, Any], part: dict[str, Any]) -> str | None:
+def _budget(run: RunEntry, part: PartEntry) -> str | None:
     budget = part.get("time_budget_s")
     if run["task"] == "time" and budget is not None and run.get("elapsed_s", 0.0) > budget:
         return f"elapsed_s is {run['elapsed_s']:g} s, over its part's time budget of {budget:g} s"
@@ -80,7 +80,7 @@ def _budget(run: dict[str, Any], part: dict[str, Any]) -> str | None:
     return None
 
 
-def _curves(run: dict[str, Any], part: dict[str, Any]) -> str | None:
+def _curves(run: RunEntry, part: PartEntry) -> str | None:
     if "q_time" not in run or "q_path" not in run:
         return None
     if run["q_time"][0] != run["q_path"][0]:
@@ -88,12 +88,12 @@ def _curves(run: dict[str, Any], part: dict[str, Any]) -> str | None:
             f"q_time[0] is {run['q_time'][0]} but q_path[0] is {run['q_path'][0]} (both are Q "
             "after the first scan)"
         )
-    final = round(run["q"], CURVE_DECIMALS)
+    final = round(value_of(run, "q"), CURVE_DECIMALS)
     for name, grid, end in (
         ("q_time", TIME_GRID_S, run.get("elapsed_s")),
         ("q_path", PATH_GRID_M, run["path_length_m"]),
     ):
-        for k, (at, value) in enumerate(zip(grid, run[name], strict=True)):
+        for k, (at, value) in enumerate(zip(grid, value_of(run, name), strict=True)):
             if end is not None and at >= end and value != final:
                 unit = "s" if name == "q_time" else "m"
                 return (
@@ -103,7 +103,7 @@ def _curves(run: dict[str, Any], part: dict[str, Any]) -> str | None:
     return None
 
 
-def _area(run: dict[str, Any], part: dict[str, Any]) -> str | None:
+def _area(run: RunEntry, part: PartEntry) -> str | None:
     if "q_time_auc" not in run:
         return None
     area = run["q_time_auc"]
@@ -111,7 +111,8 @@ def _area(run: dict[str, Any], part: dict[str, Any]) -> str | None:
         return None if area is None else f"q_time_auc is {area} in a {run['task']}-task run"
     if area is None:
         return "q_time_auc is null in a time-task run"
-    low, high = area_bounds(run["q_time"], run["q"], part["time_budget_s"])
+    q_time, q = value_of(run, "q_time"), value_of(run, "q")
+    low, high = area_bounds(q_time, q, value_of(part, "time_budget_s"))
     if not low <= area <= high:
         return (
             f"q_time_auc is {area:.6g} but its own Q(t) samples bound it to [{low:.6g}, {high:.6g}]"
@@ -139,8 +140,8 @@ def area_bounds(q_time: list[float], final_q: float, budget_s: float) -> tuple[f
     return low / budget_s - slack, high / budget_s + slack
 
 
-def _target(run: dict[str, Any], part: dict[str, Any]) -> str | None:
-    reached = run["discovered"] >= DISCOVERED_TARGET
+def _target(run: RunEntry, part: PartEntry) -> str | None:
+    reached = value_of(run, "discovered") >= DISCOVERED_TARGET
     if reached == (run["q_paper_70"] is None):
         state = "reached" if reached else "never reached"
         return (

@@ -43,19 +43,35 @@ import hashlib
 import math
 import re
 import time
+from collections.abc import Sequence
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from nbv_gym.benchmark.suites import PROTOCOL_VERSION, Suite
+from nbv_gym.benchmark.cardtypes import (
+    Aggregate,
+    Band,
+    Effort,
+    Figure,
+    Metric,
+    PartDescription,
+    PolicyEntry,
+    RunEntry,
+    Scorecard,
+    Summary,
+    Timing,
+    value_of,
+)
+from nbv_gym.benchmark.suites import METRIC_LABELS, PROTOCOL_VERSION, Suite
 from nbv_gym.benchmark.validation import (  # noqa: F401 (SCHEMA_PATH: re-exported)
     SCHEMA_PATH,
     ScorecardError,
     validate_scorecard,
 )
 from nbv_gym.core.jsonfiles import dumps_json
+from nbv_gym.reporting.formatting import estimate_text, number_text, undefined
 
 FORMAT = "nbv-gym scorecard"
 #: The optimality gap's target score: a perfect map.
@@ -76,7 +92,7 @@ BOOTSTRAP_SEED = 0
 TIME_METRIC = "q_time_auc"
 
 
-def policy_identity(name: str) -> dict[str, Any]:
+def policy_identity(name: str) -> PolicyEntry:
     """The ``policy`` entry of a scorecard for the policy ``name`` (loaded once here, so a bad
     name fails before any run): name, class, oracle flag and the hash of its code or model
     (:func:`policy_file`)."""
@@ -116,8 +132,8 @@ def file_hash(path: Path) -> str:
 
 
 def build_scorecard(
-    suite: Suite, policy: dict[str, Any], runs: list[dict[str, Any]], timing: dict[str, Any]
-) -> dict[str, Any]:
+    suite: Suite, policy: PolicyEntry, runs: list[RunEntry], timing: Timing
+) -> Scorecard:
     """The scorecard of ``policy`` (:func:`policy_identity`) with the figures ``runs`` of every run
     of ``suite`` (:func:`~nbv_gym.benchmark.suiterun.run_figures`)."""
     from nbv_gym.core.provenance import versions
@@ -138,7 +154,7 @@ def build_scorecard(
     }
 
 
-def join_scorecards(suite: Suite, cards: list[dict[str, Any]]) -> dict[str, Any]:
+def join_scorecards(suite: Suite, cards: list[Scorecard]) -> Scorecard:
     """One scorecard of the parts of ``suite`` that ``cards`` hold between them — the cards of
     one policy, of one protocol version, each scored on some of the suite's parts
     (:meth:`~nbv_gym.benchmark.suites.Suite.only`): its runs in the suite's order, its
@@ -166,39 +182,41 @@ def join_scorecards(suite: Suite, cards: list[dict[str, Any]]) -> dict[str, Any]
     runs = [
         run for split in joined.splits for c in cards for run in c["runs"] if run["split"] == split
     ]
-    timing = {"wall_time_s": sum(c["timing"]["wall_time_s"] for c in cards),
+    timing: Timing = {"wall_time_s": sum(c["timing"]["wall_time_s"] for c in cards),
               "workers": cards[-1]["timing"]["workers"]}  # fmt: skip
     return build_scorecard(joined, first["policy"], runs, timing)
 
 
-def card_aggregates(runs: list[dict[str, Any]], parts: list[dict[str, Any]]) -> dict[str, Any]:
+def card_aggregates(
+    runs: Sequence[RunEntry], parts: Sequence[PartDescription]
+) -> dict[str, Aggregate]:
     """The ``aggregates`` of a scorecard: per part of the suite (its ``split`` and ``metric``,
     as in the card's ``suite.parts``), :func:`aggregate` of its runs. The one place they are
     computed: :mod:`nbv_gym.benchmark.validation` recomputes a loaded card's with it."""
     return {part["split"]: aggregate(runs, part["split"], part["metric"]) for part in parts}
 
 
-def aggregate(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
+def aggregate(runs: Sequence[RunEntry], split: str, metric: Metric) -> Aggregate:
     """Every aggregate of one split: ``metric`` summarised over all runs and per asset type
     (:func:`summary`), the plain means of :data:`MEAN_FIGURES`, and, for runs that carry Q over
     effort (protocol version 2 on), ``effort``: Q at matched path, Q at the time budget (time
     task), the mean elapsed time and the mean curves (:func:`effort_aggregates`)."""
     mine = [run for run in runs if run["split"] == split]
     assets = list(dict.fromkeys(run["asset"] for run in mine))
-    out = {
+    out: Aggregate = {
         "metric": metric,
         "all": summary(mine, metric, f"{split}/all"),
         "by_asset": {
             a: summary([r for r in mine if r["asset"] == a], metric, f"{split}/{a}") for a in assets
         },
-        "means": {name: _mean([run[name] for run in mine]) for name in MEAN_FIGURES},
+        "means": {name: _mean([value_of(run, name) for run in mine]) for name in MEAN_FIGURES},
     }
     if mine and all("q_path" in run for run in mine):
         out["effort"] = effort_aggregates(mine, split, metric)
     return out
 
 
-def effort_aggregates(runs: list[dict[str, Any]], split: str, metric: str) -> dict[str, Any]:
+def effort_aggregates(runs: Sequence[RunEntry], split: str, metric: Metric) -> Effort:
     """Over effort, for :func:`aggregate`: ``q_at_path`` (per matched path in metres, the
     :func:`summary` of Q there), ``q_at_budget`` (time task: the summary of the final Q, which
     is Q at the time budget; else None), ``elapsed_s`` (mean), and ``q_time``/``q_path``: the
@@ -206,7 +224,7 @@ def effort_aggregates(runs: list[dict[str, Any]], split: str, metric: str) -> di
     ``high``)."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M, PATH_GRID_M
 
-    at_path = {}
+    at_path: dict[str, Summary] = {}
     for distance in MATCHED_PATHS_M:
         index = PATH_GRID_M.index(distance)
         values = [run["q_path"][index] for run in runs]
@@ -221,7 +239,7 @@ def effort_aggregates(runs: list[dict[str, Any]], split: str, metric: str) -> di
     }
 
 
-def _band(curves: list[list[float]]) -> dict[str, list[float]]:
+def _band(curves: Sequence[Sequence[Figure]]) -> Band:
     """Mean and 25th / 75th percentiles of equal-length ``curves``, point by point."""
     stack = np.asarray(curves, dtype=float)
     low, high = np.percentile(stack, [25, 75], axis=0)
@@ -229,29 +247,32 @@ def _band(curves: list[list[float]]) -> dict[str, list[float]]:
 
 
 def summary(
-    runs: list[dict[str, Any]], metric: str, label: str, values: list[Any] | None = None
-) -> dict[str, Any]:
+    runs: Sequence[RunEntry], metric: str, label: str, values: list[Any] | None = None
+) -> Summary:
     """IQM, mean and optimality gap of ``metric`` over ``runs`` (or of ``values``, one per run,
     when given), each with its 95 % stratified bootstrap interval (strata: world × noise level;
     ``label`` seeds the bootstrap); ``n``: runs with a value."""
     from nbv_gym.reporting.inference import iqm, optimality_gap, stratified_interval
 
-    given = values if values is not None else [run[metric] for run in runs]
+    given = values if values is not None else [value_of(run, metric) for run in runs]
     numbers = np.array([_number(value) for value in given], dtype=float)
     strata = [(run["world"], run["noise"]) for run in runs]
     seed = int.from_bytes(hashlib.sha256(label.encode()).digest()[:4], "big")
     rng = np.random.default_rng([BOOTSTRAP_SEED, seed])
     gap = partial(optimality_gap, target=TARGET_SCORE)
-    out: dict[str, Any] = {"n": int(np.isfinite(numbers).sum())}
-    for name, statistic in (("iqm", iqm), ("mean", np.mean), ("optimality_gap", gap)):
-        interval = stratified_interval(numbers, strata, statistic, rng)
-        out.update(
-            {name: interval.mean, f"{name}_low": interval.low, f"{name}_high": interval.high}
-        )
-    return out
+    iqm_, mean, gap_ = (
+        stratified_interval(numbers, strata, statistic, rng) for statistic in (iqm, np.mean, gap)
+    )  # drawn in this order: the intervals depend on it
+    return {
+        "n": int(np.isfinite(numbers).sum()),
+        "iqm": iqm_.mean, "iqm_low": iqm_.low, "iqm_high": iqm_.high,
+        "mean": mean.mean, "mean_low": mean.low, "mean_high": mean.high,
+        "optimality_gap": gap_.mean, "optimality_gap_low": gap_.low,
+        "optimality_gap_high": gap_.high,
+    }  # fmt: skip
 
 
-def write_scorecard(card: dict[str, Any], out: Path) -> tuple[Path, Path]:
+def write_scorecard(card: Scorecard, out: Path) -> tuple[Path, Path]:
     """Write ``scorecard.json`` (strict JSON) and ``scorecard.md`` into ``out``; their paths."""
     from nbv_gym.core.outputs import write_text
 
@@ -277,7 +298,7 @@ def _one_line(match: re.Match[str]) -> str:
     return "[" + re.sub(r",\s+", ", ", match.group(1)) + "]"
 
 
-def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
+def load_scorecard(path: str | Path, recompute: bool = True) -> Scorecard:
     """The scorecard in ``path``, validated (:func:`~nbv_gym.benchmark.validation.validate_scorecard`:
     schema, runs and, if ``recompute``, the aggregates recomputed from the runs);
     :class:`ScorecardError` if it is not one or fails."""
@@ -293,7 +314,7 @@ def load_scorecard(path: str | Path, recompute: bool = True) -> dict[str, Any]:
     return validate_scorecard(card, path, card_aggregates if recompute else None)
 
 
-def scorecard_markdown(card: dict[str, Any]) -> str:
+def scorecard_markdown(card: Scorecard) -> str:
     """A short Markdown summary: identity, then per split its score (IQM and mean with 95 %
     intervals, optimality gap) overall and per asset type."""
     from nbv_gym.reporting.formatting import markdown_code, markdown_table
@@ -332,7 +353,7 @@ def scorecard_markdown(card: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _effort_markdown(card: dict[str, Any]) -> list[str]:
+def _effort_markdown(card: Scorecard) -> list[str]:
     """The effort section of :func:`scorecard_markdown`: per split, Q at the time budget and at
     matched path (IQM [95 % interval]) and the mean elapsed time ([] for cards without it)."""
     from nbv_gym.benchmark.curves import MATCHED_PATHS_M
@@ -348,7 +369,7 @@ def _effort_markdown(card: dict[str, Any]) -> list[str]:
             part["split"], part["task"],
             interval_text(at_budget, "iqm") if at_budget else "—",
             *(interval_text(at_path[f"{d:g}"], "iqm") for d in MATCHED_PATHS_M),
-            _fixed(effort["elapsed_s"], 0),
+            number_text(effort["elapsed_s"], ".0f"),
         ])  # fmt: skip
     if not rows:
         return []
@@ -365,7 +386,7 @@ def _effort_markdown(card: dict[str, Any]) -> list[str]:
     ]
 
 
-def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
+def _split_row(part: PartDescription, agg: Aggregate) -> list[Any]:
     """One split's row of the scorecard's Markdown table."""
     from nbv_gym.core.protocol import TASK_CHARGES
 
@@ -373,46 +394,26 @@ def _split_row(part: dict[str, Any], agg: dict[str, Any]) -> list[Any]:
     return [
         part["split"],
         f"{part['task']} ({TASK_CHARGES[part['task']]})",
-        _METRIC_LABELS[agg["metric"]],
+        METRIC_LABELS[agg["metric"]],
         s["n"],
         interval_text(s, "iqm"),
         interval_text(s, "mean"),
-        _fixed(s["optimality_gap"]),
-        _percent(means["discovered"]),
-        _fixed(means["path_length_m"], 1),
-        _fixed(_ms(means["decision_time_s"]), 2),
+        number_text(s["optimality_gap"]),
+        number_text(means["discovered"], ".1%"),
+        number_text(means["path_length_m"], ".1f"),
+        decision_text(means["decision_time_s"]),
     ]
 
 
-def interval_text(summary: dict[str, Any], name: str, digits: int = 4) -> str:
+def interval_text(summary: Summary, name: str, digits: int = 4) -> str:
     """``value [low, high]`` of ``summary[name]``, or a dash when undefined."""
     value, low, high = (summary.get(k) for k in (name, f"{name}_low", f"{name}_high"))
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return "—"
-    return f"{value:.{digits}f} [{_fixed(low, digits)}, {_fixed(high, digits)}]"
+    return estimate_text(value, low, high, f".{digits}f")
 
 
-_METRIC_LABELS = {
-    "q_time_auc": "area under Q(t) / budget",
-    "q": "Q after the budget",
-    "q_paper_70": "Q_paper at 70 %",
-}
-
-
-def _fixed(value: Any, digits: int = 4) -> str:
-    return "—" if _missing(value) else f"{value:.{digits}f}"
-
-
-def _percent(value: Any) -> str:
-    return "—" if _missing(value) else f"{value:.1%}"
-
-
-def _ms(value: Any) -> Any:
-    return None if _missing(value) else 1000 * value
-
-
-def _missing(value: Any) -> bool:
-    return value is None or (isinstance(value, float) and not math.isfinite(value))
+def decision_text(seconds: Any) -> str:
+    """A mean decision time in milliseconds (two decimals), or a dash when undefined."""
+    return number_text(None if undefined(seconds) else 1000 * seconds, ".2f")
 
 
 def _number(value: Any) -> float:
@@ -420,5 +421,5 @@ def _number(value: Any) -> float:
 
 
 def _mean(values: list[Any]) -> float:
-    finite = [float(v) for v in values if not _missing(v)]
+    finite = [float(v) for v in values if not undefined(v)]
     return float(np.mean(finite)) if finite else math.nan

@@ -21,6 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from nbv_gym.benchmark.cardtypes import RunEntry, Scorecard, Timing
 from nbv_gym.benchmark.scorecard import build_scorecard, policy_identity, write_scorecard
 from nbv_gym.benchmark.suites import Part, Suite
 from nbv_gym.core.errors import NbvGymError
@@ -40,7 +41,7 @@ def score_policy(
     python_path: tuple[str, ...] = (),
     say: Callable[[str], None] | None = None,
     scheduler: str | None = None,
-) -> dict[str, Any]:
+) -> Scorecard:
     """Run every run of ``suite`` for ``policy`` not yet finished in ``out``, then write
     ``out/scorecard.json`` and ``out/scorecard.md``; the scorecard. ``workers``: local worker
     processes (default: all cores), or LocalCluster workers; ``scheduler``: a Dask scheduler
@@ -71,7 +72,10 @@ def score_policy(
             )
     runs = [row for part in suite.parts for row in part_runs(suite, part, policy, sources, out)]
     identity["oracle"] = ran_as_oracle(out, suite)  # what the runs used, not what it declares
-    timing = {"wall_time_s": time.perf_counter() - start, "workers": workers or default_workers()}
+    timing: Timing = {
+        "wall_time_s": time.perf_counter() - start,
+        "workers": workers or default_workers(),
+    }
     card = build_scorecard(suite, identity, runs, timing)
     write_scorecard(card, out)
     return card
@@ -132,7 +136,7 @@ def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
 
 def part_runs(
     suite: Suite, part: Part, policy: str, sources: dict[str, str], out: Path
-) -> list[dict[str, Any]]:
+) -> list[RunEntry]:
     """The figures (:func:`run_figures`) of every run of ``part`` in ``out``, in the suite's
     order; :class:`ScoreError` if one is missing."""
     from nbv_gym.sweep.folder import ResultStore
@@ -163,7 +167,7 @@ def ran_as_oracle(out: Path, suite: Suite) -> bool:
     )
 
 
-def run_figures(part: Part, record: dict[str, Any]) -> dict[str, Any]:
+def run_figures(part: Part, record: dict[str, Any]) -> RunEntry:
     """One run's entry of the scorecard from its sweep record (``run`` row and ``steps``): the
     final figures, Q at 70 % discovered, and Q over effort (:mod:`nbv_gym.benchmark.curves`):
     on the time and path grids, and the normalised area under Q(t) over the time task's

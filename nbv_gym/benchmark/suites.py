@@ -37,10 +37,11 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
+from nbv_gym.benchmark.cardtypes import Metric, PartDescription, PartEntry, SuiteEntry
 from nbv_gym.benchmark.shiftsplit import shift_worlds
 from nbv_gym.benchmark.testsplit import split_worlds
 from nbv_gym.core.config import to_dict
@@ -65,11 +66,55 @@ BENCHMARK_WORLDS = tuple(
 )
 #: The score of each task: the normalised area under Q(t) over the time budget; Q after the
 #: scan budget; Q_paper at the explore task's 70 % discovered.
-TASK_METRICS = {"time": "q_time_auc", "budget": "q", "explore": "q_paper_70"}
+TASK_METRICS: dict[str, Metric] = {"time": "q_time_auc", "budget": "q", "explore": "q_paper_70"}
+#: How tables and figures name each score (:data:`TASK_METRICS`).
+METRIC_LABELS = {
+    "q_time_auc": "area under Q(t) / budget",
+    "q": "Q after the budget",
+    "q_paper_70": "Q_paper at 70 %",
+}
 #: The split whose score ranks the leaderboard.
 HEADLINE_SPLIT = "time-test"
 #: The split of the time task on worlds outside every training distribution, shown beside it.
 SHIFT_SPLIT = "time-shift"
+
+
+@dataclass(frozen=True)
+class SplitLabels:
+    """How the leaderboard names a split: ``score`` (its score and what it charges: a
+    performance profile's panel) and ``column`` (the scores table's short column title)."""
+
+    score: str
+    column: str
+
+
+#: The one table of the splits a leaderboard shows, in order (the scores table's columns, the
+#: profile figure's panels), with their labels.
+SPLIT_LABELS = {
+    "time-test": SplitLabels(
+        "area under Q(t) / budget, test split (equal robot time)",
+        "equal time, test: IQM area under Q(t)",
+    ),
+    "time-shift": SplitLabels(
+        "area under Q(t) / budget, shift split (equal robot time)",
+        "equal time, shift: IQM area under Q(t)",
+    ),
+    "time-benchmark": SplitLabels(
+        "area under Q(t) / budget, benchmark worlds (equal robot time)",
+        "equal time, benchmark: IQM area under Q(t)",
+    ),
+    "test": SplitLabels(
+        "Q after the scans, test split (equal scans, travel free)",
+        "equal scans (travel free), test: IQM Q",
+    ),
+    "benchmark": SplitLabels(
+        "Q after the scans, benchmark worlds (equal scans, travel free)",
+        "equal scans (travel free), benchmark: IQM Q",
+    ),
+    "explore": SplitLabels(
+        "Q_paper at 70 % discovered (the paper's protocol)", "paper's protocol: IQM Q_paper@70 %"
+    ),
+}
 
 
 @dataclass(frozen=True)
@@ -95,7 +140,7 @@ class Part:
         lidar_preset(self.lidar)
 
     @property
-    def metric(self) -> str:
+    def metric(self) -> Metric:
         """The per-run score of this part (:data:`TASK_METRICS`)."""
         return TASK_METRICS[self.task]
 
@@ -138,9 +183,9 @@ class Part:
         every suite that holds this part with this seed."""
         return _hash({"seed": seed, "part": self.content()})
 
-    def description(self) -> dict[str, Any]:
+    def description(self) -> PartDescription:
         """The part as plain data for the scorecard (:meth:`Suite.identity` adds its hash)."""
-        return {
+        described: PartDescription = {
             "split": self.split,
             "task": self.task,
             "metric": self.metric,
@@ -151,9 +196,10 @@ class Part:
             "max_steps": self.max_steps if self.task == "explore" else None,
             "time_budget_s": self.time_budget_s if self.task == "time" else None,
             "runs": self.runs,
-            # only another preset is named: the benchmark's scorecards keep their content
-            **({"lidar": self.lidar} if self.lidar != DEFAULT_LIDAR else {}),
         }
+        if self.lidar != DEFAULT_LIDAR:  # only another preset is named: the benchmark's
+            described["lidar"] = self.lidar  # scorecards keep their content
+        return described
 
 
 @dataclass(frozen=True)
@@ -222,7 +268,7 @@ class Suite:
         """SHA-256 (16 hex digits) of :meth:`content`."""
         return _hash(self.content())
 
-    def identity(self) -> dict[str, Any]:
+    def identity(self) -> SuiteEntry:
         """The suite as a scorecard records it: name, content hash, seed, description, parts
         (each with its :meth:`Part.content_hash`)."""
         return {
@@ -231,7 +277,8 @@ class Suite:
             "seed": self.seed,
             "description": self.description,
             "parts": [
-                {**part.description(), "hash": part.content_hash(self.seed)} for part in self.parts
+                PartEntry(**part.description(), hash=part.content_hash(self.seed))
+                for part in self.parts
             ],
         }
 
@@ -241,7 +288,7 @@ def _hash(content: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
 
 
-def shipped_suite(recorded: dict[str, Any]) -> Suite | None:
+def shipped_suite(recorded: Mapping[str, Any]) -> Suite | None:
     """The shipped suite a scorecard's ``suite`` entry names, with the lidar preset its parts
     name and only the parts it records (:meth:`Suite.only`), or None for a suite nbv-gym does
     not ship (a test's, or your own worlds': those are checked against their own parts only)."""
@@ -255,7 +302,7 @@ def shipped_suite(recorded: dict[str, Any]) -> Suite | None:
     return suite.only(part.get("split") for part in parts)
 
 
-def shipped_identity(recorded: dict[str, Any]) -> dict[str, Any] | None:
+def shipped_identity(recorded: Mapping[str, Any]) -> SuiteEntry | None:
     """What a scorecard of the shipped suite it names must record as its ``suite``: the
     identity of :func:`shipped_suite` (None for a suite nbv-gym does not ship)."""
     suite = shipped_suite(recorded)

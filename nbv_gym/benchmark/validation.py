@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import cache
 from pathlib import Path
 from typing import Any
 
+from nbv_gym.benchmark.cardtypes import Aggregate, PartDescription, PartEntry, RunEntry, Scorecard
 from nbv_gym.core.errors import NbvGymError
 
 #: The JSON schema of a scorecard (package data).
@@ -39,7 +40,7 @@ SCHEMA_PATH = Path(__file__).with_name("scorecard.schema.json")
 AGGREGATE_RTOL = 1e-9
 #: ``aggregates(runs, parts)``: the aggregates a card's runs give (the scorecard module's
 #: :func:`~nbv_gym.benchmark.scorecard.card_aggregates`, passed in by its loader).
-Aggregates = Callable[[list[dict[str, Any]], list[dict[str, Any]]], dict[str, Any]]
+Aggregates = Callable[[Sequence[RunEntry], Sequence[PartDescription]], dict[str, Aggregate]]
 
 
 class ScorecardError(NbvGymError):
@@ -49,7 +50,7 @@ class ScorecardError(NbvGymError):
 
 def validate_scorecard(
     card: Any, path: str | Path, aggregates: Aggregates | None = None
-) -> dict[str, Any]:
+) -> Scorecard:
     """``card`` after checking it against the schema, its runs against its suite's parts and
     (given ``aggregates``, the function that computes them) its aggregates against those its
     runs give (about 1 s a card: the bootstrap); :class:`ScorecardError` naming ``path`` and
@@ -91,7 +92,7 @@ def _schema_problem(error) -> str:
     return _short(error.message)
 
 
-def _check_version(card: dict[str, Any], path: str | Path) -> None:
+def _check_version(card: Scorecard, path: str | Path) -> None:
     """A card of a protocol version this nbv-gym does not implement yet is refused: its figures
     follow rules unknown here, which would check and rank them under this version's."""
     from nbv_gym.benchmark.suites import PROTOCOL_VERSION
@@ -105,7 +106,7 @@ def _check_version(card: dict[str, Any], path: str | Path) -> None:
         )
 
 
-def _check_runs(card: dict[str, Any], path: str | Path) -> None:
+def _check_runs(card: Scorecard, path: str | Path) -> None:
     """Each run belongs to one part of the suite and appears once; each part has all its runs."""
     parts = {part["split"]: part for part in card["suite"]["parts"]}
     seen: dict[tuple, int] = {}
@@ -136,7 +137,7 @@ def _check_runs(card: dict[str, Any], path: str | Path) -> None:
         raise ScorecardError(f"Scorecard {path}: suite.parts names a split twice.")
 
 
-def _check_run_figures(card: dict[str, Any], path: str | Path) -> None:
+def _check_run_figures(card: Scorecard, path: str | Path) -> None:
     """Each run agrees with itself (:func:`~nbv_gym.benchmark.runchecks.inconsistent_run`)."""
     from nbv_gym.benchmark.runchecks import inconsistent_run
 
@@ -151,7 +152,7 @@ def _check_run_figures(card: dict[str, Any], path: str | Path) -> None:
         )
 
 
-def _in_part(run: dict[str, Any], part: dict[str, Any]) -> bool:
+def _in_part(run: RunEntry, part: PartEntry) -> bool:
     return (
         run["task"] == part["task"]
         and run["world"] in part["worlds"]
@@ -160,7 +161,7 @@ def _in_part(run: dict[str, Any], part: dict[str, Any]) -> bool:
     )
 
 
-def _check_aggregates(card: dict[str, Any], path: str | Path, aggregates: Aggregates) -> None:
+def _check_aggregates(card: Scorecard, path: str | Path, aggregates: Aggregates) -> None:
     """Every aggregate equals the one its runs give (within :data:`AGGREGATE_RTOL`)."""
     expected = aggregates(card["runs"], card["suite"]["parts"])
     mismatch = _first_difference(card["aggregates"], expected, ("aggregates",))

@@ -200,4 +200,6 @@ def _table(summary: dict) -> str:
 
 
 def _format(value) -> str:
-    return f"{value:.6g}" if isinstance(value, float) else str(value)
+    from nbv_gym.reporting.formatting import number_text
+
+    return number_text(value, ".6g") if isinstance(value, float) else str(value)

@@ -230,6 +230,8 @@ def _json_summary(out: Path, summary, rows: list[dict], built: Path | None) -> d
 
 
 def _echo_summary(summary, rows, to_stderr: bool = False) -> None:
+    from nbv_gym.reporting.formatting import number_text  # a dash for a policy with no finished run
+
     done = summary.resumed + summary.finished
     typer.echo(
         f"{done}/{summary.total} runs finished ({summary.resumed} before, {summary.finished} now"
@@ -244,13 +246,8 @@ def _echo_summary(summary, rows, to_stderr: bool = False) -> None:
     lines = [header]
     for r in rows:
         lines.append(
-            f"{r['policy'][:23]:<24}{r['ok']:>5}{r['failed']:>8}{_number(r['q'], 10, '.4f')}"
-            f"{_number(r['discovered'], 9, '.1%')}{_number(r['steps'], 7, '.1f')}"
-            f"{_number(r['wall_time_s'], 7, '.1f')}"
+            f"{r['policy'][:23]:<24}{r['ok']:>5}{r['failed']:>8}{number_text(r['q'], '.4f', 10)}"
+            f"{number_text(r['discovered'], '.1%', 9)}{number_text(r['steps'], '.1f', 7)}"
+            f"{number_text(r['wall_time_s'], '.1f', 7)}"
         )
     typer.echo("\n".join(lines), err=to_stderr)
-
-
-def _number(value: float, width: int, spec: str) -> str:
-    """``value`` formatted, or a dash when it is undefined (a policy with no finished run)."""
-    return f"{value:>{width}{spec}}" if value == value else f"{'—':>{width}}"

@@ -3,6 +3,8 @@ and policies), in a module of its own so that the sections import it, not the re
 
 from __future__ import annotations
 
+import math
+import numbers
 import re
 from collections.abc import Callable
 from typing import Any
@@ -27,6 +29,30 @@ def markdown_table(header: list[str], rows: list[list[Any]]) -> str:
 def _cell(value: Any) -> str:
     """A table cell's text: ``|`` escaped, line breaks as spaces (a cell is one line)."""
     return str(value).replace("|", "\\|").replace("\n", " ")
+
+
+#: What a table shows for an undefined number (None, NaN or ±inf).
+UNDEFINED = "—"
+
+
+def undefined(value: Any) -> bool:
+    """Whether ``value`` is an undefined number: None (JSON's null), NaN or ±inf."""
+    return value is None or (isinstance(value, numbers.Real) and not math.isfinite(value))
+
+
+def number_text(value: Any, spec: str = ".4f", width: int = 0) -> str:
+    """``value`` in the format ``spec`` (``".4f"``, ``".1%"``, ``".6g"``, …), right-aligned to
+    ``width`` characters, or :data:`UNDEFINED` when it is undefined (:func:`undefined`): the
+    one way a figure is written in the tables, summaries and terminal lines."""
+    return format(UNDEFINED if undefined(value) else format(value, spec), f">{width}")
+
+
+def estimate_text(value: Any, low: Any, high: Any, spec: str = ".4f") -> str:
+    """``value [low, high]`` in the format ``spec`` (:func:`number_text`), or :data:`UNDEFINED`
+    when ``value`` is undefined."""
+    if undefined(value):
+        return UNDEFINED
+    return f"{number_text(value, spec)} [{number_text(low, spec)}, {number_text(high, spec)}]"
 
 
 def markdown_code(text: object) -> str:

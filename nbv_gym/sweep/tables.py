@@ -10,8 +10,10 @@ import numpy as np
 
 from nbv_gym.mapping.statistics import STATISTICS
 from nbv_gym.reporting.formatting import (
+    estimate_text,
     is_oracle_label,
     markdown_table,
+    number_text,
     ranked_apart,
 )
 from nbv_gym.reporting.inference import (
@@ -204,20 +206,18 @@ def table2(tests, by: tuple[str, ...] = ()):
 
 def ci_text(interval: Interval, signed: bool = False) -> str:
     """``mean [low, high]`` of ``interval`` (signed with ``signed``); ``—`` when undefined."""
-    sign = "+" if signed else ""
-    if not np.isfinite(interval.mean):
-        return "—"
-    return f"{interval.mean:{sign}.4f} [{interval.low:{sign}.4f}, {interval.high:{sign}.4f}]"
+    spec = "+.4f" if signed else ".4f"
+    return estimate_text(interval.mean, interval.low, interval.high, spec)
 
 
 def p_text(value: float) -> str:
     """A p-value to 3 significant digits; ``—`` when undefined."""
-    return "—" if not np.isfinite(value) else f"{value:.3g}"
+    return number_text(value, ".3g")
 
 
 def share_text(value: float) -> str:
     """A share to 2 decimals; ``—`` when undefined."""
-    return "—" if not np.isfinite(value) else f"{value:.2f}"
+    return number_text(value, ".2f")
 
 
 def strata_of(runs) -> list[tuple]:

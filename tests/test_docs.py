@@ -27,6 +27,7 @@ from nbv_gym.cli.main import app
 from nbv_gym.configs import shipped_configs
 from nbv_gym.core.errors import CPU_TORCH
 from nbv_gym.policies.registry import MODELS, POLICIES
+from nbv_gym.team.policies import TEAM_POLICIES
 from nbv_gym.worlds.distribution import distribution_names
 from nbv_gym.worlds.spec import benchmark_names
 
@@ -84,7 +85,9 @@ def check_policy(value: str) -> None:
             f"policy {value!r}: not a reader's file"
         )
         return
-    assert name in POLICIES or name in MODELS, f"policy {value!r} is not shipped"
+    assert name in POLICIES or name in MODELS or name in TEAM_POLICIES, (
+        f"policy {value!r} is not shipped"
+    )
 
 
 def check_world(value: str) -> None:

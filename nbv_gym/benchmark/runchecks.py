@@ -49,7 +49,7 @@ def inconsistent_run(card: Scorecard) -> tuple[int, str] | None:
 def run_problem(run: RunEntry, part: PartEntry) -> str | None:
     """What is inconsistent in ``run`` (a scorecard run of ``part``), naming the field; None if
     nothing. Figures a run does not carry (protocol version 1) are not checked."""
-    for check in (_clock, _budget, _curves, _area, _target):
+    for check in (_measured, _clock, _budget, _curves, _area, _target):
         problem = check(run, part)
         if problem is not None:
             return problem
@@ -67,6 +67,14 @@ def _clock(run: RunEntry, part: PartEntry) -> str | None:
             f"(path_length_m {run['path_length_m']:.12g} m / {effort.speed_mps:g} m/s + steps "
             f"{run['steps']} × {effort.scan_time_s:g} s)"
         )
+    return None
+
+
+def _measured(run: RunEntry, part: PartEntry) -> str | None:
+    """Q and the discovered fraction are measured after every run's first scan: never null."""
+    for name in ("q", "discovered"):
+        if run.get(name) is None:
+            return f"{name} is null, but every run measures it (its first scan included)"
     return None
 
 

@@ -21,6 +21,7 @@ from nbv_gym.metrics.evaluation import (
     TRUTH_CLOUD_SUFFIXES,
     alg1_inputs,
     check_map_world,
+    check_probability_file,
     empir3d_config,
     load_ground_truth,
     load_probability,
@@ -125,13 +126,16 @@ def evaluate_map(
         raise MetricInputError(
             "give exactly one of --world NAME and --ground-truth (a cloud, or a GT.npy grid)"
         )
+    cloud = ground_truth is not None and _is_cloud(ground_truth)
+    if not cloud:
+        check_probability_file(map_path)  # before any world is built
     if out is not None:
         claim_folder(out, "evaluate")
     with Stages(4) as stage:
         stage("reading the map")
         stage("reading the ground truth; the grid scored")
-        if ground_truth is not None and _is_cloud(ground_truth):
-            prob, truth, grid = alg1_inputs(map_path, ground_truth)
+        if cloud:
+            prob, truth, grid = alg1_inputs(map_path, cast(Path, ground_truth))
         elif world is not None:
             prob, truth, grid = world_inputs(map_path, world)
         else:

@@ -38,8 +38,9 @@ def check_map_world(map_path: Path, world: str | None) -> None:
         )
 
 
-def load_probability(path: Path, grid) -> np.ndarray:
-    """The (X, Y, Z) float32 probability grid of a saved map (.npz) or a plain array (.npy)."""
+def check_probability_file(path: Path) -> None:
+    """:class:`MetricInputError` unless ``path`` is a file a probability grid is read from (a
+    saved map .npz or a plain .npy array): checked before any world is built."""
     if not path.is_file():
         raise MetricInputError(f"{path}: the map file {missing_file(path)}")
     if path.suffix not in (".npz", ".npy"):
@@ -48,6 +49,11 @@ def load_probability(path: Path, grid) -> np.ndarray:
             f"grid (.npy), not a {path.suffix or 'suffix-less'} file; score point clouds with "
             "`nbv-gym evaluate REFERENCE CANDIDATE`"
         )
+
+
+def load_probability(path: Path, grid) -> np.ndarray:
+    """The (X, Y, Z) float32 probability grid of a saved map (.npz) or a plain array (.npy)."""
+    check_probability_file(path)
     if path.suffix == ".npy":
         prob = _load_npy(path)
         if prob.shape != grid.shape or not np.issubdtype(prob.dtype, np.floating):
@@ -62,7 +68,6 @@ def load_probability(path: Path, grid) -> np.ndarray:
                 f"(e.g. {float(prob[bad].flat[0])})"
             )
         return prob.astype(np.float32, copy=False)
-
     return load_map(path).probability(grid)
 
 

@@ -138,6 +138,6 @@ def step_rewards(
 def _number(text: object) -> float:
     """``text`` as a float (NaN for what is no number: refused by the caller's range check)."""
     try:
-        return float(text)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
+        return float(str(text))
+    except ValueError:
         return math.nan

@@ -29,6 +29,7 @@ import io
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 from gymnasium import spaces
@@ -157,7 +158,7 @@ class EpisodeRecorder:
     def of_space(cls, space: spaces.Dict) -> EpisodeRecorder:
         """A recorder of the map layers of the observation ``space`` (every key but ``state``)."""
         keys = tuple(k for k in space.spaces if k != STATE_KEY)
-        highs = np.array([float(np.max(space[k].high)) for k in keys])  # type: ignore[attr-defined]
+        highs = np.array([float(np.max(cast(spaces.Box, space[k]).high)) for k in keys])
         return cls(keys, highs)
 
     def add(self, observation, mask, candidates, values, action: int, teacher: bool) -> None:

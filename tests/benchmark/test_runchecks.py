@@ -81,6 +81,8 @@ EDITS = {
         lambda card: _drive(_budget_run(card), _budget_run(card)["path_length_m"], 13),
         "steps is 13, more than its part allows (12)",
     ),
+    "no Q": (_every_run("q", None), "q is null, but every run measures it"),
+    "no discovered fraction": (_every_run("discovered", None), "discovered is null, but every"),
     "no area in a time run": (_each_time_run("q_time_auc", None), "q_time_auc is null in a time"),
     "an area in a budget run": (
         lambda card: _budget_run(card).update(q_time_auc=0.1),

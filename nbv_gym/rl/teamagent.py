@@ -5,9 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+
 import numpy as np
 
-from nbv_gym.rl.config import algorithm_class
+from nbv_gym.rl.algorithms import MaskablePPO
 from nbv_gym.rl.teamvec import robot_view
 from nbv_gym.team.policies import DecidingRobot
 
@@ -24,13 +25,11 @@ class SharedTeamAgent(DecidingRobot):
     """
 
     def __init__(self, path: str | Path, deterministic: bool = True, device: str = "cpu"):
-        self.model = algorithm_class("MaskablePPO").load(path, device=device)
+        self.model = MaskablePPO.load(path, device=device)
         self.deterministic = deterministic
 
     def _goal(self, agent: str, observations: Mapping, infos: Mapping) -> int:
         view = robot_view(observations[agent], infos[agent])
         mask = np.asarray(infos[agent]["action_mask"], bool)
-        action, _ = self.model.predict(
-            view, action_masks=mask, deterministic=self.deterministic
-        )
+        action, _ = self.model.predict(view, action_masks=mask, deterministic=self.deterministic)
         return int(action)

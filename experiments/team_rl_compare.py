@@ -14,6 +14,8 @@ from __future__ import annotations
 import statistics
 import sys
 
+import torch
+
 from nbv_gym.rl.teamagent import SharedTeamAgent
 from nbv_gym.team import TeamEnv, load_team_policy, run_team_episode
 
@@ -22,6 +24,7 @@ FIGURES = ("q_time_auc", "q", "overlap_rate")
 
 
 def main(model: str, episodes: list[str]) -> None:
+    torch.set_num_threads(1)  # a busy machine: more threads than free cores are slower
     policies = {
         "team-ppo (shared)": lambda: SharedTeamAgent(model),
         "hungarian-frontier": lambda: load_team_policy("hungarian-frontier", ROBOTS),

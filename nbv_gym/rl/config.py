@@ -294,11 +294,14 @@ class TrainConfig:
         )
         check(self.total_timesteps >= 1, "total_timesteps", "must be ≥ 1")
         check(self.n_envs >= 1, "n_envs", f"must be ≥ 1, got {self.n_envs}")
-        rollout = self.learning.n_steps * self.n_envs
+        robots = max(self.robots, 1)  # a team training's update sees every robot's slot
+        rollout = self.learning.n_steps * self.n_envs * robots
+        team = (" · robots", f" · {robots}") if robots > 1 else ("", "")
         check(
             "PPO" not in self.algorithm or self.learning.batch_size <= rollout,
             "learning.batch_size",
-            f"must be ≤ n_steps · n_envs = {self.learning.n_steps} · {self.n_envs} = {rollout} "
+            f"must be ≤ n_steps · n_envs{team[0]} = {self.learning.n_steps} · {self.n_envs}"
+            f"{team[1]} = {rollout} "
             f"(the steps of one update), got {self.learning.batch_size}; lower it (nbv-gym "
             f"train --batch-size {rollout}) or raise n_steps or n_envs",
         )

@@ -142,5 +142,6 @@ def test_a_tiny_team_training_runs_and_its_agent_acts_on_its_own_view(world, tmp
 def test_what_team_training_does_not_run_is_refused_naming_the_key(change, key):
     base = TrainConfig(task="time", eval_every_steps=0, train_worlds=("random:wide/0",))
     assert replace(base, robots=2).robots == 2
+    assert replace(base, robots=3, n_envs=1).learning.batch_size == 256  # 128 · 1 · 3 samples
     with pytest.raises(ConfigError, match=f"^{key}: robots = 2 trains on the team task"):
         replace(base, robots=2, **change)

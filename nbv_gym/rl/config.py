@@ -250,6 +250,10 @@ class TrainConfig:
     - ``imitation``: a table of :class:`ImitationConfig` makes the config a staged recipe —
       labels of a privileged teacher, imitation, then this RL training from the imitated
       weights (:mod:`nbv_gym.rl.recipe`); MaskablePPO only.
+    - ``robots``: 1, the single-robot task; N ≥ 2 trains one network shared by N robots on the
+      team task (:mod:`nbv_gym.rl.teamvec`): ``n_envs`` team envs in this process, env ``i`` on
+      ``train_worlds[i mod len]`` (world names), MaskablePPO, the time task, no evaluation
+      during training; steps count robot slots (events · N · n_envs).
     """
 
     algorithm: str = "MaskablePPO"
@@ -280,6 +284,7 @@ class TrainConfig:
     scheduler: str = ""
     init_model: str = ""
     imitation: ImitationConfig | None = None
+    robots: int = 1
 
     def __post_init__(self) -> None:
         check(
@@ -289,11 +294,14 @@ class TrainConfig:
         )
         check(self.total_timesteps >= 1, "total_timesteps", "must be ≥ 1")
         check(self.n_envs >= 1, "n_envs", f"must be ≥ 1, got {self.n_envs}")
-        rollout = self.learning.n_steps * self.n_envs
+        robots = max(self.robots, 1)  # a team training's update sees every robot's slot
+        rollout = self.learning.n_steps * self.n_envs * robots
+        team = (" · robots", f" · {robots}") if robots > 1 else ("", "")
         check(
             "PPO" not in self.algorithm or self.learning.batch_size <= rollout,
             "learning.batch_size",
-            f"must be ≤ n_steps · n_envs = {self.learning.n_steps} · {self.n_envs} = {rollout} "
+            f"must be ≤ n_steps · n_envs{team[0]} = {self.learning.n_steps} · {self.n_envs}"
+            f"{team[1]} = {rollout} "
             f"(the steps of one update), got {self.learning.batch_size}; lower it (nbv-gym "
             f"train --batch-size {rollout}) or raise n_steps or n_envs",
         )
@@ -354,6 +362,9 @@ class TrainConfig:
             "imitation",
             f'imitates with the action mask: set algorithm = "MaskablePPO", got {self.algorithm!r}',
         )
+        check(self.robots >= 1, "robots", f"must be ≥ 1, got {self.robots}")
+        if self.robots > 1:
+            _check_team(self)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The :class:`~nbv_gym.env.ExploreEnv` keywords this config trains, evaluates and
@@ -370,6 +381,23 @@ class TrainConfig:
     def n_eval_episodes(self) -> int:
         """Episodes per evaluation: ``eval_episodes``, or one per evaluation world."""
         return self.eval_episodes or len(self.eval_worlds)
+
+
+def _check_team(config: TrainConfig) -> None:
+    """ConfigError for what team training (``robots`` ≥ 2) does not run."""
+    team = {"algorithm": config.algorithm == "MaskablePPO", "task": config.task == "time",
+            "scheduler": not config.scheduler, "imitation": config.imitation is None,
+            "eval_every_steps": not config.eval_every_steps,
+            "observation_layers": not config.observation_layers,
+            "train_worlds": not any(map(is_distribution, config.train_worlds))}  # fmt: skip
+    for key in (key for key, ok in team.items() if not ok):
+        check(
+            False,
+            key,
+            f"robots = {config.robots} trains on the team task: MaskablePPO (busy robots' masks), "
+            "the time task, world names, in this process, no imitation, no optional layers, no "
+            f"evaluation during training; got {getattr(config, key)!r}",
+        )
 
 
 def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:

@@ -150,15 +150,21 @@ def _global_cnn(side: int, out: int) -> nn.Module:
 
 class GoalLogits(nn.Module):
     """The action head of the goal-map policies: the first ``n_goals`` latent entries (the
-    extractor's goal scores) are the logits."""
+    extractor's goal scores) are the logits; an action space with ``n_actions`` > ``n_goals``
+    (the team task's "carry on", :mod:`nbv_gym.rl.teamvec`) gets logits 0 for the extra
+    actions, which only a mask allowing nothing else lets a robot take."""
 
-    def __init__(self, n_goals: int):
+    def __init__(self, n_goals: int, n_actions: int | None = None):
         super().__init__()
         self.n_goals = n_goals
+        self.n_extra = (n_actions or n_goals) - n_goals
 
     def forward(self, latent: th.Tensor) -> th.Tensor:
-        """(batch, n_goals) logits: the latent's first ``n_goals`` entries."""
-        return latent[:, : self.n_goals]
+        """(batch, n_actions) logits: the latent's first ``n_goals`` entries, then zeros."""
+        logits = latent[:, : self.n_goals]
+        if not self.n_extra:
+            return logits
+        return th.cat([logits, logits.new_zeros(len(logits), self.n_extra)], dim=1)
 
 
 class GoalMapHeads(nn.Module):
@@ -232,12 +238,12 @@ class _GoalMapMixin:
     def _build_mlp_extractor(self: _ActorCritic) -> None:
         extractor = self.features_extractor
         self.mlp_extractor = GoalMapHeads(
-            int(self.action_space.n), extractor.global_dim, list(self.net_arch["vf"])
+            extractor.side**2, extractor.global_dim, list(self.net_arch["vf"])
         )
 
     def _build(self: _ActorCritic, lr_schedule: Callable[[float], float]) -> None:
         self._build_mlp_extractor()
-        self.action_net = GoalLogits(int(self.action_space.n))
+        self.action_net = GoalLogits(self.features_extractor.side**2, int(self.action_space.n))
         self.value_net = nn.Linear(self.mlp_extractor.latent_dim_vf, 1)
         if self.ortho_init:
             extractors = (

@@ -89,7 +89,7 @@ def train(
         f"on {config.scheduler}"
         if config.scheduler
         else "in worker processes"
-        if config.n_envs > 1
+        if config.n_envs > 1 and config.robots == 1
         else "here"
     )
     say(f"starting {config.n_envs} training environment(s) {where} (imports, the first worlds; "
@@ -104,8 +104,9 @@ def train(
         model = _load_or_create(config, envs, resume, verbose)
         write_run_info(config, out)  # once the run has started: a start-up failure leaves none
         model.set_logger(_logger(out, verbose))
-        say(f"training: the first update comes after {config.learning.n_steps * config.n_envs:,} "
-            "steps (n_steps · n_envs)")  # fmt: skip
+        say(f"training: the first update comes after "
+            f"{config.learning.n_steps * config.n_envs * config.robots:,} steps (n_steps · "
+            f"n_envs{' · robots' if config.robots > 1 else ''})")  # fmt: skip
         remaining = config.total_timesteps - model.num_timesteps
         if remaining <= 0:
             raise ConfigError(
@@ -176,6 +177,8 @@ def _save_checkpoint(model, out: Path) -> Path:
 def local_envs(config: TrainConfig) -> int:
     """How many environment processes run on this machine: ``n_envs``, but none when a remote
     Dask cluster runs them."""
+    if config.robots > 1:  # the team envs run in this process
+        return 1
     return config.n_envs if config.scheduler in ("", "local") else 0
 
 
@@ -199,6 +202,8 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     one per core)."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
+    if config.robots > 1:
+        return make_team_vec_env(config, seed_offset)
     from nbv_gym.core.processes import worker_environment
     from nbv_gym.rl.daskvec import DaskVecEnv
     from nbv_gym.rl.vecenv import LeanSubprocVecEnv
@@ -217,6 +222,19 @@ def make_vec_env(config: TrainConfig, seed_offset: int = 0):
     else:
         with worker_environment():  # workers share few cores: no nested thread pools
             envs = LeanSubprocVecEnv(factories, start_method="forkserver", prefetch=masks)
+    envs.seed(config.seed + seed_offset)
+    return envs
+
+
+def make_team_vec_env(config: TrainConfig, seed_offset: int = 0):
+    """The training ``VecEnv`` of a team config (``robots`` ≥ 2): ``n_envs`` team envs of
+    ``robots`` in this process, a slot per robot (:mod:`nbv_gym.rl.teamvec`)."""
+    from nbv_gym.rl.teamvec import TeamVecEnv, make_team_envs
+
+    kwargs = {key: config.env_kwargs()[key]
+              for key in ("noise", "lidar", "time_budget_s", "speed_mps", "scan_time_s")}  # fmt: skip
+    teams = make_team_envs(config.train_worlds, config.n_envs, config.robots, **kwargs)
+    envs = TeamVecEnv(teams, config.reward_scale)
     envs.seed(config.seed + seed_offset)
     return envs
 
@@ -346,7 +364,7 @@ def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbos
 #: starts a new training from the model's weights: ``init_model``).
 RESUME_KEYS = ("algorithm", "network", "features_dim", "observation_layers", "reward_scale",
                "task", "noise", "lidar", "max_steps", "time_budget_s", "speed_mps",
-               "scan_time_s")  # fmt: skip
+               "scan_time_s", "robots")  # fmt: skip
 
 
 def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
@@ -446,7 +464,7 @@ def _callbacks(
     if config.checkpoint_every_steps:
         callbacks.append(
             CheckpointCallback(
-                _calls(config.checkpoint_every_steps, config.n_envs),
+                _calls(config.checkpoint_every_steps, config.n_envs * config.robots),
                 str(out / "checkpoints"),
                 name_prefix="model",
             )

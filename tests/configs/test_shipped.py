@@ -57,7 +57,7 @@ def test_an_unknown_name_suggests_the_near_miss_of_its_kind():
         config_file("quik", "sweep")
     with pytest.raises(
         UnknownNameError,
-        match=r"Valid train configs: imitation-time, ppo, ppo-time, ppo-time-wide, ppo-wide\.$",
+        match=r"Valid train configs: imitation-time, ppo, ppo-time, ppo-time-wide, ppo-wide, team-ppo\.$",
     ):
         config_file("quick", "train")
 

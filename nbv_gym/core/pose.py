@@ -32,19 +32,25 @@ class Pose:
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
-    def rotate(self, vectors: FloatArray) -> FloatArray:
+    def rotate(self, vectors: FloatArray, out: np.ndarray | None = None) -> np.ndarray:
         """(n, 3) float: the (n, 3) ``vectors`` of this pose's frame turned into the map frame
-        (by the yaw; z unchanged). Written elementwise, not as a matrix product: a product goes
-        to the BLAS library, whose kernel (chosen by the CPU) may fuse multiply and add and
-        change the last bit, so results would differ between machines."""
+        (by the yaw; z unchanged), written into ``out`` when given (an (n, 3) array of any float
+        dtype: each value computed in float64, then rounded to it). Written elementwise, not as
+        a matrix product: a product goes to the BLAS library, whose kernel (chosen by the CPU)
+        may fuse multiply and add and change the last bit, so results would differ between
+        machines."""
         vectors = np.asarray(vectors, dtype=float)
         c, s = math.cos(self.yaw), math.sin(self.yaw)  # the C library's: numpy's varies by CPU
         x, y = vectors[:, 0], vectors[:, 1]
-        return np.stack((c * x - s * y, s * x + c * y, vectors[:, 2]), axis=1)
+        out = np.empty(vectors.shape) if out is None else out
+        out[:, 0], out[:, 1], out[:, 2] = c * x - s * y, s * x + c * y, vectors[:, 2]
+        return out
 
     def to_map(self, points: FloatArray) -> FloatArray:
         """(n, 3) map-frame points of (n, 3) points given in this pose's frame."""
-        return self.rotate(points) + self.position
+        out = self.rotate(points)
+        out += self.position
+        return out
 
 
 @dataclass(frozen=True)

@@ -205,8 +205,9 @@ class NavigationLayer:
         gi0, gj0 = box[0] // f, box[2] // f
         gi1, gj1 = -(-box[1] // f), -(-box[3] // f)
         part = (slice(gi0 * f, gi1 * f), slice(gj0 * f, gj1 * f))
-        for layer, fine in enumerate((self.known, self.free, self.occupied)):
-            block = fine[part].reshape(gi1 - gi0, f, gj1 - gj0, f)
+        known, occupied = self.known[part], self.occupied[part]
+        for layer, fine in enumerate((known, known & ~occupied, occupied)):  # free: in the part
+            block = fine.reshape(gi1 - gi0, f, gj1 - gj0, f)
             self.goal_fractions[layer, gi0:gi1, gj0:gj1] = block.mean(axis=(1, 3))
 
     def plan(self, robot_xy: FloatArray) -> None:
@@ -268,7 +269,7 @@ class NavigationLayer:
     @property
     def discovered_fraction(self) -> float:
         """Known nav cells / all nav cells of the window."""
-        return float(self.known.mean())
+        return np.count_nonzero(self.known) / self.known.size  # = known.mean(), bit for bit
 
     @property
     def robot_goal(self) -> int:
@@ -356,6 +357,10 @@ def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) ->
     nx, ny = passable.shape
     if not (0 <= start[0] < nx and 0 <= start[1] < ny):
         return np.full(passable.shape, np.inf)
+    if not passable.any():  # the start alone (a cleared map's plan), without the search's heap
+        distance = np.full(passable.shape, np.inf)
+        distance[start] = 0.0
+        return distance
     return _dijkstra(passable, start[0], start[1], float(step_m))
 
 

@@ -15,7 +15,15 @@ Keys of :func:`run`:
   besides the cast: noise, filtering, frames), ``env_insert_raw``, ``env_quality_raw``,
   ``env_statistics_raw``, ``env_navigation_raw``, ``env_observation_raw`` and
   ``env_python_raw`` (the rest of the step: the environment's and simulator's own code).
-- ``env_reset_raw``: a reset in raw casts of the start pose's scan.
+- ``env_lidar_raw``, ``env_cast_raw``, ``env_reproject_raw``, ``env_plan_raw``,
+  ``env_summary_raw``: details of those parts in raw casts (medians over the same steps): the
+  whole scan (the raw cast and the post-processing; its inverse is the share of a scan's CPU
+  time that Embree's cast takes), the lidar's cast with its arrays (the rotation into the map
+  frame, the float32 rays, the hits' distances), the navigation's re-projection and its plan
+  (the path search), and the quality's summary (the means over the comparison volume).
+- ``env_reset_raw``: a reset in raw casts of the start pose's scan; its parts
+  ``env_reset_clear_raw`` (the previous episode's map, statistics, quality and navigation
+  cleared) and ``env_reset_insert_raw`` (the first scan's insertion into the map).
 - ``env_insert_ns_per_update``: the insertion's CPU time per voxel updated (a hit or a
   miss each; ``ScanUpdate.n_updated``), nanoseconds.
 - ``env_step_os1_64_ms``, ``env_lidar_os1_64_ms``: the same step and its scan with the OS1-64
@@ -58,6 +66,19 @@ PARTS = {
     "env_quality_ms": (("sim", "_update_quality"),),
     "env_observation_ms": (("", "_observation"), ("", "_info")),
 }
+#: Details of the parts (their times are inside the parts'): key → method pairs, as in
+#: :data:`PARTS`.
+DETAILS = {
+    "env_cast_ms": (("sim.lidar", "_cast"),),
+    "env_reproject_ms": (("sim.state.navigation", "reproject"),),
+    "env_plan_ms": (("sim.state.navigation", "plan"),),
+    "env_summary_ms": (("sim.quality", "summary"),),
+}
+#: Parts of a reset, as in :data:`PARTS`.
+RESET_PARTS = {
+    "env_reset_clear_ms": (("sim", "clear"),),
+    "env_reset_insert_ms": (("sim.state.occupancy", "insert"),),
+}
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
@@ -70,11 +91,15 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     progress(f"{RESETS} resets and {STEPS} env steps on {PERF_WORLD}")
     env.reset(seed=0)  # compiles and builds everything once
     resets = [_seconds(functools.partial(env.reset, seed=seed)) for seed in range(1, RESETS + 1)]
-    reset_cpu = [_cpu_seconds(functools.partial(env.reset, seed=seed)) for seed in range(RESETS)]
+    reset_cpu, reset_parts = _reset_cpu(env)
     raw = float(np.median([raw_cast_s(env.sim) for _ in range(RESETS)]))  # the start pose's
     figures = {
         "env_reset_ms": 1e3 * float(np.median(resets)),
         "env_reset_raw": float(np.median(reset_cpu)) / raw,
+        **{
+            key.removesuffix("_ms") + "_raw": _median_of(reset_parts, key + CPU) / raw
+            for key in RESET_PARTS
+        },
         **_steps(env),
     }
     progress(f"{STEPS} env steps on {PERF_WORLD} with the OS1-64 preset")
@@ -121,7 +146,29 @@ def _steps(env) -> dict[str, float]:
     figures["env_insert_ns_per_update"] = 1e9 * float(np.median(per_update))
     for key, share in _raw_shares(list(cpu), parts, raws).items():
         figures[key] = float(np.median(share))
+    for key in ("env_lidar_ms", *DETAILS):
+        share = [p.get(key + CPU, 0.0) / raw for p, raw in zip(parts, raws, strict=True)]
+        figures[key.removesuffix("_ms") + "_raw"] = float(np.median(share))
     return figures
+
+
+def _median_of(parts: list[dict[str, float]], key: str) -> float:
+    """The median of ``key`` over ``parts`` (0 where a part lacks it)."""
+    return float(np.median([p.get(key, 0.0) for p in parts]))
+
+
+def _reset_cpu(env) -> tuple[list[float], list[dict[str, float]]]:
+    """CPU seconds of :data:`RESETS` resets, and of their parts (:data:`RESET_PARTS`, under
+    the key + :data:`CPU`); the parts' timers are taken off after."""
+    spent: dict[str, float] = {}
+    _time_parts(env, spent, RESET_PARTS)
+    cpu, parts = [], []
+    for seed in range(RESETS):
+        spent.clear()
+        cpu.append(_cpu_seconds(functools.partial(env.reset, seed=seed)))
+        parts.append(dict(spent))
+    _untime_parts(env, RESET_PARTS)
+    return cpu, parts
 
 
 def _raw_shares(steps: list[float], parts: list[dict[str, float]], raws: list[float]):
@@ -170,38 +217,61 @@ def _count_updates(env, counts: list[int] | None = None) -> list[int]:
     return counts
 
 
-def _time_parts(env, spent: dict[str, float] | None = None) -> dict[str, float]:
-    """Wrap the methods of :data:`PARTS` that exist on their instances (again after a reset that
-    replaced them); returns the dict the wrappers add their seconds to (wall, and the process's
-    CPU under the key + :data:`CPU`). A part's time is counted once when its methods call each
-    other."""
+def _time_parts(
+    env, spent: dict[str, float] | None = None, parts: dict | None = None
+) -> dict[str, float]:
+    """Wrap the methods of ``parts`` (default: :data:`PARTS` and :data:`DETAILS`) that exist on
+    their instances (again after a reset that replaced them); returns the dict the wrappers add
+    their seconds to (wall, and the process's CPU under the key + :data:`CPU`). A part's time is
+    counted once when its methods call each other; a method may count in several parts."""
     spent = {} if spent is None else spent
     running: dict[str, int] = {}
-    for key, methods in PARTS.items():
-        for path, name in methods:
-            owner = env
-            for attribute in filter(None, path.split(".")):
-                owner = getattr(owner, attribute, None)
-            method = getattr(owner, name, None)
-            if method is not None and not getattr(method, "perf_timed", False):
-                setattr(owner, name, _timed(method, key, spent, running))
+    keys: dict[tuple[str, str], list[str]] = {}
+    for key, methods in (parts or PARTS | DETAILS).items():
+        for method in methods:
+            keys.setdefault(method, []).append(key)
+    for (path, name), method_keys in keys.items():
+        owner = _owner(env, path)
+        method = getattr(owner, name, None)
+        if method is not None and not getattr(method, "perf_timed", False):
+            setattr(owner, name, _timed(method, tuple(method_keys), spent, running))
     return spent
 
 
-def _timed(method, key: str, spent: dict[str, float], running: dict[str, int]):
+def _untime_parts(env, parts: dict) -> None:
+    """Take the wrappers of :func:`_time_parts` for ``parts`` off their instances."""
+    for methods in parts.values():
+        for path, name in methods:
+            owner = _owner(env, path)
+            if getattr(getattr(owner, name, None), "perf_timed", False):
+                delattr(owner, name)
+
+
+def _owner(env, path: str):
+    """The object at the dotted ``path`` from ``env`` ("": the env; None if missing)."""
+    owner = env
+    for attribute in filter(None, path.split(".")):
+        owner = getattr(owner, attribute, None)
+    return owner
+
+
+def _timed(method, keys: tuple[str, ...], spent: dict[str, float], running: dict[str, int]):
     """``method`` adding its seconds to ``spent[key]``, and its CPU seconds to
-    ``spent[key + CPU]``."""
+    ``spent[key + CPU]``, for each of ``keys``."""
 
     def timed(*args, **kwargs):
         start, start_cpu = time.perf_counter(), time.process_time()
-        running[key] = running.get(key, 0) + 1
+        for key in keys:
+            running[key] = running.get(key, 0) + 1
         try:
             return method(*args, **kwargs)
         finally:
-            running[key] -= 1
-            if not running[key]:
-                spent[key] = spent.get(key, 0.0) + time.perf_counter() - start
-                spent[key + CPU] = spent.get(key + CPU, 0.0) + time.process_time() - start_cpu
+            wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
+            for key in keys:
+                running[key] -= 1
+                if not running[key]:
+                    spent[key] = spent.get(key, 0.0) + wall
+                    spent[key + CPU] = spent.get(key + CPU, 0.0) + cpu
 
     timed.__dict__["perf_timed"] = True
     timed.__dict__["perf_counted"] = getattr(method, "perf_counted", False)

@@ -192,9 +192,11 @@ class Lidar:
         self.range_noise = range_noise
         self.localisation = localisation
         self.bounds_xy = bounds_xy
-        #: the true sensor pose of the first scan and its cast distances: an episode's first
-        #: scan is taken from the start pose, and every reset casts the same rays again
-        self._first_cast: tuple[tuple[float, ...], np.ndarray] | None = None
+        #: (3, m) float64 the directions' x, y and z rows (the returns' coordinates gather them)
+        self._rows = np.ascontiguousarray(self.directions.T)
+        #: the true sensor pose of the first scan and its hits: an episode's first scan is
+        #: taken from the start pose, and every reset casts the same rays again
+        self._first_cast: tuple[tuple[float, ...], tuple[IntArray, FloatArray]] | None = None
 
     @classmethod
     def for_world(
@@ -226,38 +228,40 @@ class Lidar:
         """Scan from the robot's ground pose ``robot``; all randomness is drawn from ``rng``."""
         self._check_pose(robot)
         true_pose = self.sensor_pose(robot)
-        distance = self._cast(true_pose)
-        ray_index = np.flatnonzero(np.isfinite(distance))
-        ranges = distance[ray_index]
+        ray_index, ranges = self._cast(true_pose)
         if self.range_noise is not None:
             ranges = self.range_noise.apply(ranges, rng)
         noisy_pose = self.localisation.perturb(true_pose, rng)
         return self._returns(ray_index, ranges, true_pose, noisy_pose)
 
-    def _cast(self, true_pose: Pose) -> np.ndarray:
-        """(m,) float64 distance along each ray from the sensor at ``true_pose`` to the first hit
-        (inf: none); the first pose's distances are kept and given again for that pose."""
+    def _cast(self, true_pose: Pose) -> tuple[IntArray, FloatArray]:
+        """The rays from the sensor at ``true_pose`` that hit: (k,) int64 their indices and (k,)
+        float64 the distances to the first hit; the first pose's are kept and given again for
+        that pose."""
         key = (true_pose.x, true_pose.y, true_pose.z, true_pose.yaw)
         if self._first_cast is not None and self._first_cast[0] == key:
-            return self._first_cast[1].copy()
-        world_directions = true_pose.rotate(self.directions)  # no BLAS: same bits on every CPU
-        distance = self.scene.cast(true_pose.position, world_directions)
+            return self._first_cast[1][0].copy(), self._first_cast[1][1].copy()
+        origins, directions = np.empty((2, *self.directions.shape), np.float32)  # per call:
+        origins[:] = true_pose.position  # look-aheads scan on several threads
+        true_pose.rotate(self.directions, out=directions)  # no BLAS: same bits on every CPU
+        ray_index, distance = self.scene.hits(origins, directions)
         if self._first_cast is None:
-            self._first_cast = (key, distance.copy())
-        return distance
+            self._first_cast = (key, (ray_index.copy(), distance.copy()))
+        return ray_index, distance
 
     def _returns(
         self, ray_index: IntArray, ranges: FloatArray, true_pose: Pose, noisy_pose: Pose
     ) -> Scan:
         """The scan of the hits ``ray_index`` at ``ranges``, less those the sensor drops."""
-        points = ranges[:, None] * self.directions[ray_index]
-        keep = (ranges > self.min_range_m) & (
-            np.hypot(points[:, 0], points[:, 1]) >= self.min_horizontal_m
+        dx, dy, dz = self._rows
+        x, y = ranges * dx[ray_index], ranges * dy[ray_index]
+        keep = np.flatnonzero(
+            (ranges > self.min_range_m) & (np.hypot(x, y) >= self.min_horizontal_m)
         )
-        points = points[keep]
-        return Scan(
-            points, ranges[keep], ray_index[keep], true_pose, noisy_pose, noisy_pose.to_map(points)
-        )
+        ray_index, ranges = ray_index[keep], ranges[keep]
+        points = np.empty((len(keep), 3))
+        points[:, 0], points[:, 1], points[:, 2] = x[keep], y[keep], ranges * dz[ray_index]
+        return Scan(points, ranges, ray_index, true_pose, noisy_pose, noisy_pose.to_map(points))
 
     def _check_pose(self, robot: Pose) -> None:
         values = (robot.x, robot.y, robot.z, robot.yaw)

@@ -42,10 +42,22 @@ class RayScene:
     def cast(self, origins: FloatArray, directions: FloatArray) -> FloatArray:
         """(n,) float64 distance along each (n, 3) unit direction from each (n, 3) origin to the
         first hit, ``inf`` where the ray hits nothing."""
-        origins = np.ascontiguousarray(np.broadcast_to(origins, directions.shape), np.float32)
-        tfar = self._scene.run(
-            origins, np.ascontiguousarray(directions, np.float32), query="DISTANCE"
-        )  # the hit distances only (no hit: embreex's initial tfar), without u, v and normals
+        tfar = self._tfar(origins, directions)
         distance = tfar.astype(np.float64)
         distance[tfar >= _NO_HIT] = np.inf
         return distance
+
+    def hits(self, origins: FloatArray, directions: FloatArray) -> tuple[IntArray, FloatArray]:
+        """The rays of :meth:`cast` that hit: (k,) int64 their indices and (k,) float64 their
+        distances (the finite values of :meth:`cast`, without its (n,) float64 array). Float32
+        C-ordered (n, 3) ``origins`` and ``directions`` are cast without a copy."""
+        tfar = self._tfar(origins, directions)
+        index = np.flatnonzero(tfar < _NO_HIT)
+        return index, tfar[index].astype(np.float64)
+
+    def _tfar(self, origins: FloatArray, directions: FloatArray) -> np.ndarray:
+        """(n,) float32 embreex's hit distances (no hit: its initial tfar, :data:`_NO_HIT`)."""
+        origins = np.ascontiguousarray(np.broadcast_to(origins, directions.shape), np.float32)
+        return self._scene.run(
+            origins, np.ascontiguousarray(directions, np.float32), query="DISTANCE"
+        )  # the hit distances only, without u, v and normals

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from nbv_gym.perf.env import CPU, PARTS, _raw_shares
+from nbv_gym.perf.env import CPU, PARTS, _raw_shares, _time_parts, _untime_parts
 
 
 def test_a_step_and_its_parts_in_raw_casts_add_up():
@@ -28,3 +28,21 @@ def test_a_step_and_its_parts_in_raw_casts_add_up():
         "env_step_raw", "env_postprocess_raw", "env_insert_raw", "env_statistics_raw",
         "env_navigation_raw", "env_quality_raw", "env_observation_raw", "env_python_raw",
     }  # fmt: skip
+
+
+def test_a_method_counts_in_every_part_naming_it_and_its_timers_come_off():
+    class Lidar:
+        def scan(self) -> int:
+            return 7
+
+    class Env:
+        sim = type("Sim", (), {})()
+
+    env = Env()
+    env.sim.lidar = Lidar()
+    parts = {"env_a_ms": (("sim.lidar", "scan"),), "env_b_ms": (("sim.lidar", "scan"),)}
+    spent = _time_parts(env, parts=parts)
+    assert env.sim.lidar.scan() == 7
+    assert set(spent) == {"env_a_ms", "env_a_ms" + CPU, "env_b_ms", "env_b_ms" + CPU}
+    _untime_parts(env, parts)
+    assert "scan" not in vars(env.sim.lidar)

@@ -50,7 +50,7 @@ from nbv_gym.mapping.probability import (
 from nbv_gym.mapping.state import ExplorationState
 from nbv_gym.mapping.store import stored
 from nbv_gym.mapping.tally import _apply, _apply_first_misses
-from nbv_gym.mapping.traversal import TILE
+from nbv_gym.mapping.traversal import OUTSIDE, TILE
 
 #: Changes a trial logs before it folds them into the totals (12 bytes each).
 LOG_CAPACITY = 1 << 16
@@ -129,6 +129,7 @@ class ScanOverlay:
         else:  # a trial did not finish
             window.words[:] = self._hit[:] = 0
         layout = window.place(origin_grid)
+        self._cut_to_region(origin_grid)
         _, cells = occupancy._touch_grid(self.region)
         max_range = occupancy.params["max_range_m"] / occupancy.grid.res
         window._clean = False
@@ -143,6 +144,18 @@ class ScanOverlay:
         sums, outside, crossed = self._out
         return TrialTotals(self._cells[:k].copy(), sums[:k].copy(), outside[:k].copy(),
                            crossed[:k].copy())  # fmt: skip
+
+    def _cut_to_region(self, origin_grid: np.ndarray) -> None:
+        """Leave only G's voxels in the window's tables when the sensor's voxel lies in G: a
+        walk then stops where it leaves G. The trial loses nothing: only the updates inside G
+        count, and a walk's indices move one way along each axis, so a walk that has left G's
+        box never comes back into it."""
+        low, high = self._inside[:3], self._inside[3:]
+        voxel = np.floor(origin_grid).astype(np.int64)
+        if np.all((low <= voxel) & (voxel <= high)):
+            for table, first, last in zip(self._window.tables, low, high, strict=True):
+                table[: first + 1] = OUTSIDE
+                table[last + 2 :] = OUTSIDE
 
     def levels(self, cells: np.ndarray) -> np.ndarray:
         """(k, f, f, f) uint32 levels of the voxels of the (k,) flat cells of G after the scan
@@ -164,9 +177,8 @@ class ScanOverlay:
 def _try_scan(origin, points, max_range, words, hit, tables, layout, region, store, dirty, offsets,
               deltas, clamp, cells, sums, outside, band, thresholds, slot, touched, out, log,
               first_misses, cache):  # fmt: skip
-    """Mark the voxels a scan updates as the insertion marks them (its hits' voxels listed and
-    set in ``hit``, every other voxel of its passes set in ``words``), then apply the hits and
-    sweep the marked bricks in store order (:func:`_sweep`). Returns the number k of cells it
+    """Mark the voxels a scan updates in ``words`` as the insertion marks them, those of its
+    hits in ``hit`` too, then sweep the marked bricks in store order (:func:`_sweep`). Returns the number k of cells it
     would change (their flat indices left in ``touched[:k]``, their sums, outside counts and
     crossing flags in ``out[0][:k]``, ``out[1][:k]``, ``out[2][:k]``), the (h,) int64 bits of
     its hits, the window's ``layout`` and the walks' box: the marks :func:`_clear` clears. Only
@@ -175,14 +187,15 @@ def _try_scan(origin, points, max_range, words, hit, tables, layout, region, sto
     hits, n_hits = _mark_hits(origin, points, max_range, words, tables)
     box = _mark_passes(origin, points, max_range, words, tables)
     one = np.uint64(1)
-    for h in range(n_hits):  # an endpoint beats a free pass: its voxel gets no miss
+    for h in range(n_hits):  # an endpoint beats a free pass: its voxel gets a hit, no miss
         bit = hits[h, 3]
-        words[bit >> 6] &= ~(one << np.uint64(bit & 63))
         hit[bit >> 6] |= one << np.uint64(bit & 63)
+        for a in range(3):  # a walk cut short may not reach its endpoint's voxel
+            box[a], box[a + 3] = min(box[a], hits[h, a]), max(box[a + 3], hits[h, a])
     inside = np.empty(6, np.int64)  # the walks' box cut to G's voxels: no update outside counts
     inside[:3], inside[3:] = np.maximum(box[:3], region[:3]), np.minimum(box[3:], region[3:])
     bricks = _marked_bricks(words, layout, inside)
-    k = _sweep(words, bricks, hits, n_hits, store, dirty, offsets, deltas, clamp, cells, sums,
+    k = _sweep(words, hit, bricks, store, dirty, deltas, clamp, cells, sums,
                outside, band, thresholds, slot, touched, out, log, first_misses, cache)  # fmt: skip
     return k, hits[:n_hits, 3].copy(), layout.copy(), box
 
@@ -199,55 +212,49 @@ def _clear(words, hit, hit_bits, layout, box):
 
 
 @njit(cache=True)
-def _sweep(words, bricks, hits, n_hits, store, dirty, offsets, deltas, clamp, cells, sums,  # noqa: C901 — a numba kernel
-           outside, band, thresholds, slot, touched, out, log, first_misses, cache):  # fmt: skip
-    """Visit the ``n_hits`` hits of ``hits``, then every bit of ``words`` in the ``bricks``,
-    brick by brick in store order (one miss each); compute each voxel's value after the scan
-    from its stored value as :func:`~nbv_gym.mapping.insertion.insert_scan` does, and fold the
-    changes inside G into per-touched-cell copies of the cells' ``sums`` and ``outside`` (flat
-    over G) with the tally's kernels: logged changes (``log``: slot, old, new log-odds; NaN =
-    unknown) through the probability ``cache``, first misses (unknown to the miss log-odds)
-    counted in ``first_misses``. ``slot`` (cells,) maps a cell to its index among the touched
-    (-1: none; left all -1 on return). The voxel's update is written once, in this loop, as in
-    the insertion's kernel (an inlined helper taking arrays costs reference counting)."""
-    x_offset, y_offset, z_offset = offsets
+def _sweep(words, hit, bricks, store, dirty, deltas, clamp, cells, sums, outside,  # noqa: C901 — a numba kernel
+           band, thresholds, slot, touched, out, log, first_misses, cache):  # fmt: skip
+    """Visit every bit of ``words`` in the ``bricks``, brick by brick in store order (a hit
+    where ``hit`` holds it, else a miss); compute each voxel's value after the scan from its
+    stored value as :func:`~nbv_gym.mapping.insertion.insert_scan` does, and fold the changes
+    inside G into per-touched-cell copies of the cells' ``sums`` and ``outside`` (flat over G)
+    with the tally's kernels: logged changes (``log``: slot, old, new log-odds; NaN = unknown)
+    through the probability ``cache``, first misses (unknown to the miss log-odds) counted in
+    ``first_misses``. ``slot`` (cells,) maps a cell to its index among the touched (-1: none;
+    left all -1 on return). The voxel's update is written once, in this loop, as in the
+    insertion's kernel (an inlined helper taking arrays costs reference counting)."""
     log_slot, log_old, log_new = log
     out_sums, out_outside, crossed = out
     lo_min, lo_max = clamp[0], clamp[1]
     first_miss = min(max(np.float32(0.0) + deltas[1], lo_min), lo_max)
     n_touched = n_log = 0
     n_bricks = bricks.shape[0]
-    h, k, word, current = 0, -1, _WORDS - 1, np.uint64(0)
+    k, word, current, hits = -1, _WORDS - 1, np.uint64(0), np.uint64(0)
     at = base = vx = vy = vz = 0
     readable = False
     while True:
-        if h < n_hits:
-            cx, cy, cz = hits[h, 0], hits[h, 1], hits[h, 2]
-            i = x_offset[cx] + y_offset[cy] + z_offset[cz]
-            readable, is_hit = dirty[i >> 10], True
-            h += 1
-        else:
-            while current == 0:  # the next mark, brick by brick in store order
-                word += 1
-                if word == _WORDS:
-                    k, word = k + 1, 0
-                    if k == n_bricks:
-                        break
-                    at, base = bricks[k, 0] * _WORDS, bricks[k, 1]
-                    vx, vy, vz = bricks[k, 2], bricks[k, 3], bricks[k, 4]
-                    readable = dirty[base >> 10]
-                    if k + 1 < n_bricks and readable:  # the next brick's first lines
-                        _prefetch(store, bricks[k + 1, 1])
-                current = words[at + word]
-            if k == n_bricks:
-                break
-            o = word * _WORD + trailing_zeros(current)
-            current &= current - np.uint64(1)
-            i = base + o  # the brick's voxel o (axis_offsets' bit fields)
-            cx = vx + ((o >> 6) & 3) * TILE + ((o >> 2) & 3)
-            cy = vy + ((o >> 4) & 3) * TILE + (o & 3)
-            cz = vz + (o >> 8)
-            is_hit = False
+        while current == 0:  # the next mark, brick by brick in store order
+            word += 1
+            if word == _WORDS:
+                k, word = k + 1, 0
+                if k == n_bricks:
+                    break
+                at, base = bricks[k, 0] * _WORDS, bricks[k, 1]
+                vx, vy, vz = bricks[k, 2], bricks[k, 3], bricks[k, 4]
+                readable = dirty[base >> 10]
+                if k + 1 < n_bricks and readable:  # the next brick's first lines
+                    _prefetch(store, bricks[k + 1, 1])
+            current, hits = words[at + word], hit[at + word]
+        if k == n_bricks:
+            break
+        b = trailing_zeros(current)
+        current &= current - np.uint64(1)
+        is_hit = (hits >> np.uint64(b)) & np.uint64(1) != 0
+        o = word * _WORD + b
+        i = base + o  # the brick's voxel o (axis_offsets' bit fields)
+        cx = vx + ((o >> 6) & 3) * TILE + ((o >> 2) & 3)
+        cy = vy + ((o >> 4) & 3) * TILE + (o & 3)
+        cz = vz + (o >> 8)
         cell = cells[0, cx] + cells[1, cy] + cells[2, cz]
         if cell < 0:  # outside G
             continue

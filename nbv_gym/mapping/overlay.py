@@ -3,21 +3,21 @@ change in the totals and threshold levels of G's cells (a look-ahead scoring man
 
 A trial reads the map and its cell totals and writes only arrays of its own, so trials on one state
 run side by side in threads (the kernels release the GIL), and nothing has to be undone. It marks
-the voxels the scan would update in two bitsets over the scan's marking window — those getting a
-hit, and all those getting an update; the window is laid out in the store's pages, 1024 bits a
-page, so the sweep reads the map page by page — walking the rays exactly as
-:meth:`OccupancyMap.insert <nbv_gym.mapping.OccupancyMap.insert>` does (OctoMap's semantics: every
-return within range a hit, then one miss for every other voxel of the rays' free passes), then
-sweeps the marked voxels once: a voxel's value after the scan follows from its value now and its
-mark. The changes go into the cells' totals through the same kernels as
+the voxels the scan would update as the insertion marks them (:mod:`nbv_gym.mapping.insertion`:
+the same walk, OctoMap's semantics — every return within range a hit, then one miss for every
+other voxel of the rays' free passes — into a bitset laid out like the store's bricks, the hits in
+a second one), then sweeps the marked bricks once in store order: a voxel's value after the scan
+follows from its value now and its mark. Only the cells of G count, so a trial whose sensor lies in
+G walks the rays only until they leave G's box, and sweeps only the bricks meeting it. The changes
+go into the cells' totals through the same kernels as
 :class:`~nbv_gym.mapping.tally.CellTally`'s, whose sums are exact in any order: the totals a trial
 gives are those the tally would hold after inserting the scan, bit for bit, and the levels those
 :meth:`OccupancyMap.level_blocks <nbv_gym.mapping.OccupancyMap.level_blocks>` would give (tests
 compare both with a real insertion).
 
-One trial costs the walk and one pass over the marked voxels (no map writes, no undo): about half
-the CPU of inserting the scan into a scratch copy of the map and undoing it, and no copy of the map
-per state (``nbv-gym bench --suite references``).
+One trial costs the walk and one pass over the marked voxels (no map writes, no undo): less than
+half the CPU of inserting the scan into a scratch copy of the map and undoing it, and no copy
+of the map per state (``nbv-gym bench --suite references``).
 """
 
 from __future__ import annotations

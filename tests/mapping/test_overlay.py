@@ -63,3 +63,22 @@ def test_a_sensor_outside_the_map_is_refused_as_insertion_refuses_it(explored):
     sim, _ = explored
     with pytest.raises(PoseError, match="outside the map box"):
         ScanOverlay(sim.state, THRESHOLDS).try_scan(np.array([1e4, 0.0, 1.0]), np.zeros((1, 3)))
+
+
+def test_a_trial_cut_short_leaves_no_marks_in_the_next(explored, monkeypatch):
+    sim, goals = explored
+    scan = sim.lidar.scan(sim.goal_pose(int(goals[0])), np.random.default_rng(0))
+    expected = ScanOverlay(sim.state, THRESHOLDS).try_scan(scan.origin, scan.points_map)
+    tried = ScanOverlay(sim.state, THRESHOLDS)
+
+    def cut_short(origin, points, max_range, words, hit, *_):
+        words[:] = hit[:] = np.uint64(0xFFFF)  # marks everywhere, then a failure
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(overlay, "_try_scan", cut_short)
+        with pytest.raises(KeyboardInterrupt):
+            tried.try_scan(scan.origin, scan.points_map)
+    totals = tried.try_scan(scan.origin, scan.points_map)
+    assert np.array_equal(totals.cells, expected.cells)
+    assert np.array_equal(totals.sums, expected.sums) and len(totals.cells) > 100

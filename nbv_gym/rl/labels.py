@@ -236,6 +236,11 @@ def collect_episode(job: EpisodeJob, model: bytes | None) -> tuple[int, bytes]:
     worker = _worker(job.setup)
     learner = _learner(model) if model is not None and job.teacher_share < 1 else None
     labels = worker.run(job, learner)
+    if (problem := labels.value_problem()) is not None:  # never written: a rerun would repeat it
+        raise LabelFileError(
+            f"teacher {job.setup.teacher!r}: episode {job.episode} {problem}; a teacher rates "
+            "each candidate a finite number, or −inf to rule it out"
+        )
     return len(labels), labels.to_bytes()
 
 

@@ -24,7 +24,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.core.errors import NbvGymError
+from nbv_gym.core.errors import NbvGymError, broken_link
 
 
 class OutputError(NbvGymError):
@@ -38,7 +38,7 @@ def writable_folder(path: str | Path, option: str = "--out") -> Path:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        why = _link_why(path) or _why(error)
+        why = f"it {link}" if (link := broken_link(path)) else _why(error)
         raise OutputError(f"{option} {path}: cannot create the folder ({why}).") from None
     if not os.access(path, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {path}: the folder is not writable (permission denied).")
@@ -85,19 +85,6 @@ def _remember(path: Path) -> None:
 
 def _why(error: OSError) -> str:
     return error.strerror or str(error)
-
-
-def _link_why(path: Path) -> str | None:
-    """Why the symbolic link ``path`` leads to no folder (it loops, or its target is
-    missing), or None when ``path`` is no such link."""
-    if not path.is_symlink():
-        return None
-    try:
-        os.stat(path)
-    except OSError as error:
-        what = "loops" if error.errno == errno.ELOOP else "points to nothing"
-        return f"it is a symbolic link to {os.readlink(path)} that {what}"
-    return None
 
 
 #: The file that records which command wrote a folder (``run``, ``sweep``, …).

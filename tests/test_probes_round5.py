@@ -219,3 +219,20 @@ def test_restamp_with_a_part_is_refused_before_anything_s07(capsys):
         main(["--restamp", "--part", "time-shift"])
     assert stopped.value.code == 2
     assert "--restamp runs nothing, so it scores no --part" in capsys.readouterr().err
+
+
+def test_cards_of_one_own_suite_scored_with_two_lidars_name_the_lidars_c33():
+    import copy
+    import json
+
+    from nbv_gym.benchmark.leaderboard import LeaderboardError, check_comparable
+    from nbv_gym.benchmark.ranking import Entry
+    from nbv_gym.benchmark.references import reference_path
+
+    card = json.loads(reference_path("closest-frontier", "standard").read_text(encoding="utf-8"))
+    other = copy.deepcopy(card)
+    other["suite"]["hash"] = "0123456789abcdef"
+    for part in other["suite"]["parts"]:
+        part["lidar"], part["hash"] = "vlp-16", "f" * 16
+    with pytest.raises(LeaderboardError, match=r"lidar os1-16\).*lidar vlp-16\)"):
+        check_comparable([Entry("a", card, "a"), Entry("b", other, "b")])

@@ -10,6 +10,7 @@ of each, cheaply (no world is built).
 from __future__ import annotations
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -236,3 +237,24 @@ def test_cards_of_one_own_suite_scored_with_two_lidars_name_the_lidars_c33():
         part["lidar"], part["hash"] = "vlp-16", "f" * 16
     with pytest.raises(LeaderboardError, match=r"lidar os1-16\).*lidar vlp-16\)"):
         check_comparable([Entry("a", card, "a"), Entry("b", other, "b")])
+
+
+@pytest.mark.parametrize(
+    ("config", "earlier", "message"),
+    [
+        ("ppo-time", "recipe.toml", "holds a staged recipe run"),  # R48
+        ("imitation-time", "final_model.zip", r"holds a plain training \(final_model.zip\)"),  # R49
+    ],
+)
+def test_a_recipe_and_a_plain_training_never_share_a_folder_r48_r49(
+    tmp_path, config, earlier, message
+):
+    pytest.importorskip("torch")
+    from tests.helpers import invoke
+
+    (tmp_path / earlier).write_text("the earlier run's", encoding="utf-8")
+    result = invoke("train", "--config", config, "--out", tmp_path, "--no-progress")
+    assert result.code == 2, result.err
+    assert re.search(message, result.err), result.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == [earlier]
+    assert (tmp_path / earlier).read_text(encoding="utf-8") == "the earlier run's"

@@ -258,3 +258,19 @@ def test_a_recipe_and_a_plain_training_never_share_a_folder_r48_r49(
     assert re.search(message, result.err), result.err
     assert sorted(p.name for p in tmp_path.iterdir()) == [earlier]
     assert (tmp_path / earlier).read_text(encoding="utf-8") == "the earlier run's"
+
+
+def test_a_damaged_learner_model_is_named_before_any_label_r40(tmp_path):
+    pytest.importorskip("torch")
+    from nbv_gym.policies import PolicyError
+    from nbv_gym.rl.labels import collect
+
+    config = load_train_config(config_file("imitation-time", "train"))
+    model = tmp_path / "imitation" / "iter-0" / "model.zip"
+    model.parent.mkdir(parents=True)
+    model.write_bytes(b"PK\x03\x04 cut short")
+    with pytest.raises(
+        PolicyError, match=r"imitation/iter-0/model\.zip' is not a stable-baselines3"
+    ):
+        collect(config, tmp_path / "labels" / "iter-1", 1, model, progress=False)
+    assert not list((tmp_path / "labels" / "iter-1").glob("*.npz"))

@@ -53,6 +53,7 @@ from nbv_gym.reporting.formatting import (
     number_text,
     printable,
 )
+from nbv_gym.sensor.presets import DEFAULT_LIDAR
 
 if TYPE_CHECKING:
     from nbv_gym.reporting.inference import Interval
@@ -167,22 +168,24 @@ def check_comparable(entries: list[Entry]) -> None:
     """Raise :class:`LeaderboardError` naming each source's suite and protocol version unless all
     ``entries`` share one suite name and protocol version, every split two of them hold is one
     part (its hash), and all rank by one split."""
-    identities: dict[tuple[str, str, int], list[str]] = {}
+    identities: dict[tuple[str, str, int, str], list[str]] = {}
     hashes: dict[str, set[str]] = {}
     for entry in entries:
         suite = entry.card["suite"]
-        identity = (suite["name"], suite["hash"], entry.card["protocol_version"])
+        lidars = sorted({part.get("lidar", DEFAULT_LIDAR) for part in suite["parts"]})
+        identity = (suite["name"], suite["hash"], entry.card["protocol_version"], ", ".join(lidars))
         identities.setdefault(identity, []).append(entry.source)
         for part in suite["parts"]:
             hashes.setdefault(part["split"], set()).add(part["hash"])
-    names = {(name, version) for name, _, version in identities}
+    names = {(name, version) for name, _, version, _ in identities}
     if len(names) == 1 and all(len(found) == 1 for found in hashes.values()):
         _check_same_parts(entries)
         _check_rank_split(entries)
         return
     described = "; ".join(
-        f"{_sources(sources)}: suite {name} (hash {digest}), protocol version {version}"
-        for (name, digest, version), sources in identities.items()
+        f"{_sources(sources)}: suite {name} (hash {digest}, lidar {lidar}), protocol version "
+        f"{version}"
+        for (name, digest, version, lidar), sources in identities.items()
     )
     raise LeaderboardError(
         f"Cannot merge scorecards of different suites or protocol versions — {described}. Score "

@@ -305,6 +305,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(
             f"not shipped policies: {', '.join(unknown)}; shipped: {', '.join(shipped_policies())}"
         )
+    if args.restamp and args.part:
+        parser.error("--restamp runs nothing, so it scores no --part; give one or the other")
     suite = get_suite(args.suite)
     try:
         if args.restamp:

@@ -159,13 +159,20 @@ def train(
 
 def _recipe(settings, out: Path, refused: bool, progress: bool, verbose: bool, time_limit) -> None:
     """Run or go on with the staged recipe ``settings`` in ``out`` (nbv_gym.rl.recipe)."""
-    from nbv_gym.core.outputs import OutputError, claim_folder
+    from nbv_gym.core.outputs import OutputError, check_owner, claim_folder
     from nbv_gym.rl.recipe import run_recipe
+    from nbv_gym.rl.train import earlier_training
 
     if refused:
         raise OutputError(
             "--resume and --force do not apply to a staged recipe (a config with [imitation]): "
             "rerun the same command to go on where it stopped, or give another --out."
+        )
+    check_owner(out, "train")
+    if earlier := earlier_training(out):
+        raise OutputError(
+            f"--out {out} holds a plain training ({', '.join(earlier[:3])}); give the recipe "
+            "another folder."
         )
     claim_folder(out, "train")
     imitation = settings.imitation
@@ -187,9 +194,15 @@ def _check_train_folder(out: Path, force: bool, resume: Path | None) -> bool:
     command's folder and that an earlier training is continued (``--resume``) or replaced
     (``--force``), never overwritten unasked."""
     from nbv_gym.core.outputs import OutputError, check_owner
+    from nbv_gym.rl.recipe import RECIPE
     from nbv_gym.rl.train import earlier_training
 
     check_owner(out, "train")
+    if (out / RECIPE).exists():
+        raise OutputError(
+            f"--out {out} holds a staged recipe run ({RECIPE}; its RL stage is {out / 'rl'}); "
+            "give a plain training another folder."
+        )
     earlier = earlier_training(out)
     if earlier and not (force or resume):
         raise OutputError(

@@ -8,6 +8,8 @@ exit codes.
 from __future__ import annotations
 
 import difflib
+import errno
+import os
 import stat
 from collections.abc import Iterable
 from pathlib import Path
@@ -19,13 +21,27 @@ class NbvGymError(Exception):
 
 def missing_file(path: object) -> str:
     """Why the file ``path`` cannot be read, for a message: ``"is a folder, not a file"``,
-    ``"is not a regular file (a FIFO)"`` (a device, a socket) or ``"does not exist"``."""
+    ``"is not a regular file (a FIFO)"`` (a device, a socket), ``"is a symbolic link to X that
+    loops"`` (or that points to nothing) or ``"does not exist"``."""
     path = Path(str(path))
     if path.is_dir():
         return "is a folder, not a file"
     if path.exists():
         return f"is not a regular file ({file_type(path.stat().st_mode)})"
-    return "does not exist"
+    return broken_link(path) or "does not exist"
+
+
+def broken_link(path: Path) -> str | None:
+    """``"is a symbolic link to X that loops"`` (or ``"… that points to nothing"``) when
+    ``path`` is a symbolic link that leads to no file, else None."""
+    if not path.is_symlink():
+        return None
+    try:
+        path.stat()
+    except OSError as error:
+        what = "loops" if error.errno == errno.ELOOP else "points to nothing"
+        return f"is a symbolic link to {os.readlink(path)} that {what}"
+    return None
 
 
 def file_type(mode: int) -> str:

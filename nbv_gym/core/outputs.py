@@ -24,7 +24,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.core.errors import NbvGymError
+from nbv_gym.core.errors import NbvGymError, broken_link
 
 
 class OutputError(NbvGymError):
@@ -38,7 +38,8 @@ def writable_folder(path: str | Path, option: str = "--out") -> Path:
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise OutputError(f"{option} {path}: cannot create the folder ({_why(error)}).") from None
+        why = f"it {link}" if (link := broken_link(path)) else _why(error)
+        raise OutputError(f"{option} {path}: cannot create the folder ({why}).") from None
     if not os.access(path, os.W_OK | os.X_OK):
         raise OutputError(f"{option} {path}: the folder is not writable (permission denied).")
     return path

@@ -73,6 +73,23 @@ class PrivilegedInfoError(NbvGymError):
         self.key = key
 
 
+class AbsentInfoError(NbvGymError, KeyError):
+    """A policy read an agent key that this task's ``info`` does not hold (the time task's clock
+    under another task); a :class:`KeyError`, so ``info.get(key)`` still gives its default."""
+
+    def __init__(self, key: str, reader: str = ""):
+        who = f"Policy {reader} read" if reader else "read"
+        self.message = (
+            f"{who} info[{key!r}] ({AGENT_KEYS[key]}), which this task does not give; run a task "
+            f"that gives it, or read it with info.get({key!r})"
+        )
+        super().__init__(self.message)
+        self.key = key
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return self.message
+
+
 class AgentView(Mapping):
     """The agent values of ``info``, copied: the view holds its :data:`AGENT_KEYS`' values (arrays
     as read-only copies, nested dicts as read-only copies) and the names of the other keys, and
@@ -93,6 +110,8 @@ class AgentView(Mapping):
             return self._values[key]
         if key in PRIVILEGED_KEYS or key in self._withheld:
             raise PrivilegedInfoError(key, self._reader)
+        if key in AGENT_KEYS:
+            raise AbsentInfoError(key, self._reader)
         raise KeyError(key)
 
     def get(self, key: str, default: Any = None) -> Any:

@@ -28,10 +28,13 @@ from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
 from nbv_gym.worlds.distribution import (
     MAX_POOL_SIZE,
+    PREFIX,
     WIDE_POOL_SIZE,
+    WorldDistribution,
     heldout_names,
     is_distribution,
 )
+from nbv_gym.worlds.spec import load_spec
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -313,6 +316,7 @@ class TrainConfig:
                 key,
                 f"a world distribution (random:…) must be the only entry, got {list(worlds)}",
             )
+            check_pool_names(key, worlds)
         check(
             1 <= self.world_pool_size <= MAX_POOL_SIZE,
             "world_pool_size",
@@ -398,6 +402,19 @@ def _check_team(config: TrainConfig) -> None:
             "the time task, world names, in this process, no imitation, no optional layers, no "
             f"evaluation during training; got {getattr(config, key)!r}",
         )
+
+
+def check_pool_names(key: str, worlds: tuple[str, ...]) -> None:
+    """:class:`ConfigError` naming ``key`` for a ``random:…`` name that is no distribution or
+    pool world (an unknown kind, an index past the pool's bound): known from the name alone, so
+    refused before any world is built, not when a stage first uses it."""
+    for world in worlds:
+        if not str(world).startswith(PREFIX):
+            continue
+        try:
+            WorldDistribution.from_name(world) if is_distribution(world) else load_spec(world)
+        except (ConfigError, UnknownNameError) as error:
+            raise ConfigError(f"{key}: {error}") from None
 
 
 def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None) -> TrainConfig:

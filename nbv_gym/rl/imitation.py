@@ -55,11 +55,13 @@ METRIC_COLUMNS = ("iteration", "epoch", "train_states", "train_loss", "validatio
 
 
 def teacher_targets(values: np.ndarray, temperature: float) -> np.ndarray:
-    """(m,) float64 target probabilities of (m,) candidate ``values``: a softmax at
-    ``temperature`` relative to the largest |value| (uniform when all values are 0)."""
-    scale = float(np.max(np.abs(values)))
+    """(m,) float64 target probabilities of (m,) candidate ``values`` (finite, or −inf for a
+    candidate ruled out, at least one finite): a softmax at ``temperature`` relative to the
+    largest finite |value| (uniform over the finite ones when they are all 0); 0 for −inf."""
+    finite = np.isfinite(values)
+    scale = float(np.max(np.abs(values[finite])))
     if not scale > 0:
-        return np.full(len(values), 1 / len(values))
+        return finite / finite.sum()
     weights = np.exp((values - np.max(values)) / (temperature * scale))
     return weights / weights.sum()
 

@@ -14,7 +14,8 @@ but the last):
 - ``mask``: (n, ⌈G / 8⌉) uint8, the action mask as bits (``np.packbits``);
 - ``candidates`` (m,) int32 and ``values`` (m,) float64: the teacher's candidate goals and their
   values, state ``t``'s at ``offsets[t]:offsets[t + 1]`` (``offsets``: (n + 1,) int64), in the
-  teacher's order (its tie-break: the first);
+  teacher's order (its tie-break: the first); a value is a finite number or −inf (a candidate the
+  teacher rules out), and a state with candidates has at least one finite value;
 - ``action`` (n,) int32, the goal taken; ``teacher_acted`` (n,) bool, whether the teacher chose
   it; ``reward`` (n,) float64, the environment's reward of the step (unscaled);
 - ``world``, ``iteration``, ``episode``, ``seed``: where the episode ran and its reset seed.
@@ -128,7 +129,7 @@ class EpisodeLabels:
         try:
             with np.load(path, allow_pickle=False) as data:
                 iteration, episode, seed = (int(v) for v in data["meta"])
-                return cls(
+                labels = cls(
                     keys=tuple(str(k) for k in data["keys"]),
                     **{name: data[name] for name in _ARRAYS},
                     world=str(data["world"]), iteration=iteration, episode=episode, seed=seed,
@@ -138,6 +139,27 @@ class EpisodeLabels:
                 f"{str(path)!r} is not a label shard ({type(error).__name__}: {error}); delete "
                 "it and rerun the same command (its episode is collected again)."
             ) from None
+        if (problem := labels.value_problem()) is not None:
+            raise LabelFileError(
+                f"{str(path)!r} {problem}: a teacher rates each candidate a finite number, or "
+                "−inf to rule it out; delete the shard and rerun the same command (its episode "
+                "is collected again)."
+            )
+        return labels
+
+    def value_problem(self) -> str | None:
+        """What makes the teacher's values unusable (NaN or +inf values, or a state whose
+        candidates are all −inf), or None."""
+        values = np.asarray(self.values, np.float64)
+        bad = int((np.isnan(values) | np.isposinf(values)).sum())
+        if bad:
+            return f"holds {bad} NaN or +inf teacher value(s)"
+        sizes = np.diff(self.offsets)
+        starts = self.offsets[:-1][sizes > 0]
+        best = np.maximum.reduceat(values, starts) if len(starts) else values[:0]
+        if np.isneginf(best).any():
+            return f"holds {int(np.isneginf(best).sum())} state(s) whose candidates are all −inf"
+        return None
 
 
 _ARRAYS = ("highs", "layers", "state", "mask", "offsets", "candidates", "values", "action",

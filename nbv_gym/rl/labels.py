@@ -41,6 +41,7 @@ from nbv_gym.env.explore import ExploreEnv
 from nbv_gym.env.views import agent_view
 from nbv_gym.rl.config import TrainConfig
 from nbv_gym.rl.labelfile import EpisodeLabels, EpisodeRecorder, LabelFileError
+from nbv_gym.rl.modelfile import describe_model
 from nbv_gym.worlds import load_world
 from nbv_gym.worlds.distribution import is_distribution
 
@@ -131,6 +132,8 @@ def collect(
         return paths
     if share < 1 and learner is None:
         raise ValueError(f"iteration {iteration} needs a learner (teacher share {share:g})")
+    if share < 1 and learner is not None:
+        describe_model(learner)  # a damaged model is named here, not as a worker's copy of it
     model = learner.read_bytes() if share < 1 and learner is not None else None
     say(f"labels of iteration {iteration}: {len(todo)} of {len(paths)} episodes to collect "
         f"(teacher share {share:g}) {_where(config)}…")  # fmt: skip
@@ -236,6 +239,11 @@ def collect_episode(job: EpisodeJob, model: bytes | None) -> tuple[int, bytes]:
     worker = _worker(job.setup)
     learner = _learner(model) if model is not None and job.teacher_share < 1 else None
     labels = worker.run(job, learner)
+    if (problem := labels.value_problem()) is not None:  # never written: a rerun would repeat it
+        raise LabelFileError(
+            f"teacher {job.setup.teacher!r}: episode {job.episode} {problem}; a teacher rates "
+            "each candidate a finite number, or −inf to rule it out"
+        )
     return len(labels), labels.to_bytes()
 
 

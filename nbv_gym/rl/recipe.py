@@ -32,6 +32,8 @@ from nbv_gym.rl.config import TrainConfig, load_train_config
 from nbv_gym.rl.imitation import imitate
 from nbv_gym.rl.labels import check_teacher, collect, shard_path
 from nbv_gym.rl.train import FINAL_MODEL, TrainingInterrupted, dumps_toml, train
+from nbv_gym.worlds import load_spec
+from nbv_gym.worlds.distribution import is_distribution
 
 RECIPE = "recipe.toml"
 RL = "rl"
@@ -53,6 +55,9 @@ def run_recipe(
         raise ConfigError("the config has no [imitation] table: it is no staged recipe")
     out = Path(out)
     check_teacher(config)
+    for world in dict.fromkeys((*config.train_worlds, *config.eval_worlds)):
+        if not is_distribution(world):
+            load_spec(world)  # a misspelt world is refused now, not at the RL stage hours later
     _claim(out, config)
     model = None
     for i in range(imitation.iterations):
@@ -141,6 +146,12 @@ def _claim(out: Path, config: TrainConfig) -> None:
     out.mkdir(parents=True, exist_ok=True)
     path = out / RECIPE
     if not path.exists():
+        stages = [name for name in ("labels", "imitation", RL) if (out / name).exists()]
+        if stages:  # its labels and models came from a config no longer known
+            raise ConfigError(
+                f"{out} holds a recipe run's {', '.join(stages)} but no {RECIPE}: the config they "
+                f"came from is unknown; put its {RECIPE} back, or give another --out."
+            )
         write_text(path, dumps_toml(to_dict(config)))
         return
     earlier, now = _flat(to_dict(load_train_config(path))), _flat(to_dict(config))

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nbv_gym.core.arrays import FloatArray
+from nbv_gym.core.errors import ConfigError, NbvGymError
 from nbv_gym.worlds.scenes.files import MAX_SIZE_M, MIN_SIZE_M, check_size, to_metres_z_up
 from nbv_gym.worlds.scenes.spec import detect_kind
 
@@ -68,6 +69,15 @@ def _geometry(path: Path, kind: str) -> tuple[FloatArray, int]:
 
     vertices, faces = read_mesh(path)
     return vertices, len(faces)
+
+
+def _guess(summary: SceneSummary) -> str:
+    """The unit guess of ``summary`` in words, with the size that led to it."""
+    across = float(np.max((summary.high_m - summary.low_m)[:2])) / summary.scale
+    return (
+        f"{summary.units}, since the file is {across:,.4g} units across; if they are metres or "
+        "another unit, give --scale"
+    )
 
 
 def _guess_scale(points: FloatArray, up: str) -> float:
@@ -138,7 +148,7 @@ def import_scene(
     check(up in (None, "z", "y"), "--up", f"expected z or y, got {up!r}")
     check(ground in ("add", "mesh"), "--ground", f"expected add or mesh, got {ground!r}")
     if not file.is_file():
-        from nbv_gym.core.errors import ConfigError, missing_file
+        from nbv_gym.core.errors import missing_file
 
         raise ConfigError(f"{file} {missing_file(file)}.")
     summary = summarise(file, scale, up)
@@ -147,7 +157,12 @@ def import_scene(
     from nbv_gym.core.config import parse_toml
 
     spec = parse_scene_spec(parse_toml(text, str(out)), str(out), out.resolve().parent)
-    world = load_world(spec)
+    try:
+        world = load_world(spec)
+    except NbvGymError as error:
+        if scale is not None or summary.scale == 1.0:
+            raise
+        raise ConfigError(f"{error} (the units are a guess: {_guess(summary)})") from None
     if accept is not None:
         accept(world)
     if replace:

@@ -145,8 +145,8 @@ def test_scorecards_of_different_suites_are_refused_naming_them(tiny_suite, tmp_
     with pytest.raises(LeaderboardError, match="different suites or protocol versions") as error:
         gather([a, b], references=False)
     message = str(error.value)
-    assert f"suite tiny (hash {tiny_suite.content_hash()})" in message
-    assert f"suite other (hash {other.content_hash()})" in message
+    assert f"suite tiny (hash {tiny_suite.content_hash()}, lidar os1-16)" in message
+    assert f"suite other (hash {other.content_hash()}, lidar os1-16)" in message
 
 
 def test_scorecards_of_different_protocol_versions_are_refused(tiny_suite, tmp_path):

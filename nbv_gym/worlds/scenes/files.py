@@ -52,6 +52,13 @@ def read_mesh(path: Path) -> tuple[FloatArray, IntArray]:
         raise SceneFileError(
             path, f"{len(faces):,} triangles, more than {MAX_TRIANGLES:,}; decimate it first"
         )
+    outside = (faces < 0) | (faces >= len(vertices))
+    if outside.any():
+        raise SceneFileError(
+            path,
+            f"a triangle names vertex {int(faces[outside][0])}, but the file holds "
+            f"{len(vertices):,} vertices (0 … {len(vertices) - 1:,}); repair the file",
+        )
     used, faces = np.unique(faces, return_inverse=True)
     vertices = vertices[used]
     check_finite(path, vertices, "vertices")

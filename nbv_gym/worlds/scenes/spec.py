@@ -68,7 +68,8 @@ class SceneConfig:
         )
         check(0 <= self.clear_radius_m < math.inf, "clear_radius_m", "must be ≥ 0 and finite")
         check(
-            self.sha256 == "" or len(self.sha256) == 64,
+            self.sha256 == ""
+            or (len(self.sha256) == 64 and set(self.sha256.lower()) <= set("0123456789abcdef")),
             "sha256",
             "must be the file's 64 hex digits (or left out)",
         )

@@ -12,6 +12,10 @@ excluded):
 - ``train_update_ms_per_step``: the PPO updates (the environments idle meanwhile).
 
 The last three add up to ``1000 / train_steps_per_s`` (up to SB3's bookkeeping between updates).
+
+- ``train_step_raw``: ``1000 / train_steps_per_s`` in raw casts: over the CPU ms of one raw
+  Embree cast of a scan's rays from the world's start pose (median of :data:`RAW_CASTS`, as
+  ``env_raw_cast_ms`` of the env suite), so that it compares across machines.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from dataclasses import replace
 from nbv_gym.perf import PERF_WORLD
 
 UPDATES = 2
+RAW_CASTS = 9
 
 
 def run(progress: Callable[[str], None]) -> dict[str, float]:
@@ -50,12 +55,30 @@ def run(progress: Callable[[str], None]) -> dict[str, float]:
     finally:
         envs.close()
     steps = model.num_timesteps - steps
+    raw_ms = _raw_cast_ms(config)
     return {
         "train_steps_per_s": steps / elapsed,
+        "train_step_raw": 1000 * elapsed / steps / raw_ms,
         "train_env_ms_per_step": 1000 * envs.seconds / steps,
         "train_policy_ms_per_step": 1000 * (phases.rollout_s - envs.seconds) / steps,
         "train_update_ms_per_step": 1000 * phases.update_s / steps,
     }
+
+
+def _raw_cast_ms(config) -> float:
+    """CPU ms of a raw cast from the start pose of an environment of ``config`` (median)."""
+    import numpy as np
+
+    from nbv_gym.perf.env import raw_cast_s
+    from nbv_gym.rl.train import _env_factory
+
+    env = _env_factory(config, config.train_worlds)
+    try:
+        env.reset(seed=config.seed)
+        sim = env.unwrapped.env.sim  # the world cycle's ExploreEnv
+        return 1000 * float(np.median([raw_cast_s(sim) for _ in range(RAW_CASTS)]))
+    finally:
+        env.close()
 
 
 if __name__ == "__main__":

@@ -4,7 +4,9 @@ learning curve, the model file's size, the time limit, and the lean goal-map net
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
+import platform
 import tomllib
 import zipfile
 from dataclasses import replace
@@ -378,3 +380,49 @@ def test_what_shows_an_earlier_training(tmp_path):
     (tmp_path / "logs" / "run-1" / "progress.csv").write_text("time/iterations\n1\n")
     (tmp_path / "checkpoints" / "model_16_steps.zip").write_bytes(b"x")
     assert earlier_training(tmp_path) == ["checkpoints", "logs"]
+
+
+#: sha256 of the final policy's parameters (names and float32 bytes, by name) of the training of
+#: ``test_the_same_seed_trains_the_same_model_as_before``. Recorded from the code at commit
+#: b4adde0 (before the direct Dask channel of the training environments) with torch 2.13.0 (CPU)
+#: on x86-64 Linux: a faster transport must train the very same model. Other torch builds or
+#: machines may round differently: the test then only runs where the digest was recorded.
+REFERENCE_DIGEST = "cef17d1dc25e1ce4647882ff624d6cdb8c650f0642304c0c37decf76bd8b665b"
+REFERENCE_TORCH = "2.13.0"
+
+
+def policy_digest(model) -> str:
+    """sha256 over the policy's parameters: each name, then its tensor's bytes, by name."""
+    digest = hashlib.sha256()
+    for name, tensor in sorted(model.policy.state_dict().items()):
+        digest.update(name.encode())
+        digest.update(tensor.detach().cpu().numpy().tobytes())
+    return digest.hexdigest()
+
+
+@pytest.mark.slow  # 128 steps on 2 workers (each a world load); ~1–2 min on 2 busy cores
+@pytest.mark.parametrize("scheduler", ["", "local"])
+def test_the_same_seed_trains_the_same_model_as_before(world, tmp_path, scheduler):
+    """Local lean workers and a 2-worker LocalCluster both train, from the same seed, the model
+    the code before the faster transports trained (observations with a gain layer: 14 layers)."""
+    if th.__version__.split("+")[0] != REFERENCE_TORCH or platform.machine() != "x86_64":
+        pytest.skip(f"digest recorded with torch {REFERENCE_TORCH} on x86-64")
+    if scheduler:
+        pytest.importorskip("distributed")
+    config = TrainConfig(
+        total_timesteps=128,
+        n_envs=2,
+        train_worlds=(world,),
+        eval_worlds=(),
+        max_steps=4,
+        observation_layers=("gain_nobs",),
+        learning=LearningConfig(n_steps=32, batch_size=32, n_epochs=2),
+        checkpoint_every_steps=0,
+        eval_every_steps=0,
+        torch_threads=1,
+        seed=3,
+        scheduler=scheduler,
+    )
+    model = train(config, tmp_path, progress_bar=False)
+    assert model.num_timesteps == 128
+    assert policy_digest(model) == REFERENCE_DIGEST

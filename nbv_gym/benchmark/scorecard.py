@@ -86,6 +86,9 @@ MEAN_FIGURES = (
     "steps",
     "decision_time_s",
 )
+#: Figures of a team protocol's run whose plain means its split's aggregates add
+#: (``time_to_q_s``: over the runs that reached the Q target).
+TEAM_MEAN_FIGURES = ("overlap_rate", "longest_path_m", "contribution_spread", "time_to_q_s")
 #: Seed of the bootstrap (a scorecard is the same whenever its runs are).
 BOOTSTRAP_SEED = 0
 #: The time task's score (:data:`~nbv_gym.benchmark.suites.TASK_METRICS`).
@@ -198,7 +201,8 @@ def card_aggregates(
 
 def aggregate(runs: Sequence[RunEntry], split: str, metric: Metric) -> Aggregate:
     """Every aggregate of one split: ``metric`` summarised over all runs and per asset type
-    (:func:`summary`), the plain means of :data:`MEAN_FIGURES`, and, for runs that carry Q over
+    (:func:`summary`), the plain means of :data:`MEAN_FIGURES` (and of
+    :data:`TEAM_MEAN_FIGURES` for team runs), and, for runs that carry Q over
     effort (protocol version 2 on), ``effort``: Q at matched path, Q at the time budget (time
     task), the mean elapsed time and the mean curves (:func:`effort_aggregates`)."""
     mine = [run for run in runs if run["split"] == split]
@@ -211,6 +215,9 @@ def aggregate(runs: Sequence[RunEntry], split: str, metric: Metric) -> Aggregate
         },
         "means": {name: _mean([value_of(run, name) for run in mine]) for name in MEAN_FIGURES},
     }
+    if mine and all("per_robot" in run for run in mine):
+        out["means"] |= {name: _mean([value_of(run, name) for run in mine])
+                         for name in TEAM_MEAN_FIGURES}  # fmt: skip
     if mine and all("q_path" in run for run in mine):
         out["effort"] = effort_aggregates(mine, split, metric)
     return out

@@ -56,8 +56,8 @@ def score_policy(
     say = say or _stderr
     start = time.perf_counter()
     _check_kind(policy, suite)
-    out = claim_folder(Path(out), "score")  # not a run's, sweep's or training's folder
     identity = team_policy_identity(policy) if suite.team else policy_identity(policy)
+    out = claim_folder(Path(out), "score")  # not a run's, sweep's or training's folder
     _check_same_policy(out, policy)
     sources = write_world_specs(suite, out / "worlds")
     say(f"scoring {policy} on suite {suite.name} ({suite.runs} runs) → {out}")

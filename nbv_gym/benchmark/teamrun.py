@@ -40,16 +40,18 @@ def team_policy_identity(name: str) -> PolicyEntry:
     """The ``policy`` entry of a team scorecard (the policy loaded once here, so a bad name, an
     oracle or a policy a team cannot run fails before any run): a team policy's class and
     module source, or a single-robot policy's code run by :class:`~nbv_gym.team.EachRobot`."""
+    import inspect
+
     from nbv_gym.benchmark.scorecard import file_hash, policy_file
     from nbv_gym.policies import policy_name
-    from nbv_gym.team.policies import TEAM_POLICIES, load_team_policy
+    from nbv_gym.team.policies import EachRobot, load_team_policy
 
     team = load_team_policy(name, 1)
-    if name in TEAM_POLICIES:
-        path: Path | None = Path(__import__(type(team).__module__, fromlist=["_"]).__file__)
-        kind = policy_name(team)
+    if isinstance(team, EachRobot):
+        path, kind = policy_file(name), f"{EACH_ROBOT}({policy_name(team.policies[0])})"
     else:
-        path, kind = policy_file(name), f"{EACH_ROBOT}({policy_name(team.policies[0])})"  # type: ignore[attr-defined]
+        source = inspect.getsourcefile(type(team))
+        path, kind = Path(source) if source else None, policy_name(team)
     return {
         "name": name,
         "class": kind,
@@ -95,7 +97,7 @@ def _run_path(folder: Path, spec) -> Path:
 def _read_run(path: Path) -> RunEntry:
     from nbv_gym.core.inputs import read_json
 
-    return read_json(path, "Team run")  # type: ignore[no-any-return]
+    return read_json(path, "Team run")
 
 
 def _map(function: Callable[[Any], RunEntry], jobs: list, workers: int):
@@ -115,8 +117,9 @@ def _team_run(job: tuple[Part, Any, str]) -> RunEntry:
     part, spec, policy = job
     config = part.env_config()
     simulator = replace(config.simulator, world=spec.world_source, noise=spec.noise)
-    env = TeamEnv(replace(config, simulator=simulator), n_robots=part.robots)
-    result = run_team_episode(env, load_team_policy(policy, part.robots or 1), spec.seed)
+    robots = part.robots if part.robots is not None else 1  # a team part's: always set
+    env = TeamEnv(replace(config, simulator=simulator), n_robots=robots)
+    result = run_team_episode(env, load_team_policy(policy, robots), spec.seed)
     asset = asset_type(load_spec(spec.world_source))
     return team_entry(part, spec, asset, result)
 

@@ -85,8 +85,8 @@ def score(
     """
     from nbv_gym.benchmark.scorecard import interval_text
     from nbv_gym.benchmark.suiterun import score_policy
-    from nbv_gym.benchmark.teamrun import check_team_options
     from nbv_gym.benchmark.suites import get_suite
+    from nbv_gym.benchmark.teamrun import check_team_options
     from nbv_gym.cli.sweep import resumable
     from nbv_gym.core.config import check
     from nbv_gym.sweep.backends import reach_scheduler

@@ -18,7 +18,10 @@ and fixes them; every loaded card is checked against it):
   :data:`~nbv_gym.benchmark.curves.TIME_GRID_S`, ``q_path`` on
   :data:`~nbv_gym.benchmark.curves.PATH_GRID_M`; ``q_time_auc``: the normalised area under Q(t)
   over the time task's budget, null in the other tasks), decision time (mean seconds of the
-  policy's ``act`` per step) and the episode's wall time;
+  policy's ``act`` per step) and the episode's wall time; a team run (the team suite's parts
+  name their ``robots``) adds ``time_to_q_s``, ``per_robot``, ``overlap_rate``,
+  ``longest_path_m`` and ``contribution_spread`` and keeps ``q_time`` on
+  :data:`~nbv_gym.benchmark.curves.TEAM_TIME_GRID_S` (:mod:`nbv_gym.benchmark.teamrun`);
 - ``aggregates``: per split, the split's score (``metric``: the area under Q(t) for the time
   task, Q after the budget for the budget task, Q_paper at 70 % for the explore task) over all
   its runs (``all``) and per asset type (``by_asset``): the interquartile mean and the mean,

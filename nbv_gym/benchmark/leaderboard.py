@@ -129,8 +129,8 @@ def _given_card(path: Path) -> Scorecard:
     _check_shipped_suite(card, path)
     if not any(split in card["aggregates"] for split in RANK_SPLITS):
         raise LeaderboardError(
-            f"{path} has no time-task split ({' or '.join(RANK_SPLITS)}), which ranks the "
-            "leaderboard; score the policy on a suite with one (`nbv-gym score POLICY --suite "
+            f"{path} has no time-task split ({' or '.join(RANK_SPLITS[:2])}), nor a team one "
+            f"({' or '.join(RANK_SPLITS[2:])}), which ranks the leaderboard; score the policy on a suite with one (`nbv-gym score POLICY --suite "
             "standard`)."
         )
     return card

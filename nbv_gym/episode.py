@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import csv
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
@@ -146,24 +146,36 @@ def _row(
 def write_run_folder(out: Path, env: ExploreEnv, result: EpisodeResult, meta: dict) -> dict:
     """Write the step table, the summary, the final map and statistics to ``out``; the summary
     (what ``summary.json`` holds)."""
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "steps.csv", "w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=STEP_COLUMNS)
-        writer.writeheader()
-        writer.writerows(result.steps)
-    summary = {
-        **meta,
-        "config": to_dict(env.config),
-        "final": result.final,
-        "n_steps": len(result.steps) - 1,
-        "end_reason": result.end_reason,
-        "wall_time_s": result.wall_time_s,
-        "quality": asdict(env.sim.summary),
-        "versions": versions(),
-    }
-    (out / "summary.json").write_text(dumps_json(summary) + "\n", encoding="utf-8")
+    figures = {"final": result.final, "n_steps": len(result.steps) - 1,
+               "end_reason": result.end_reason, "wall_time_s": result.wall_time_s}  # fmt: skip
+    table = ("steps.csv", STEP_COLUMNS, result.steps)
+    summary = write_run_files(out, table, meta, env.config, figures, env.sim.summary)
     env.sim.save(out)
     _write_exports(out, env)
+    return summary
+
+
+def write_run_files(
+    out: Path,
+    table: tuple[str, Sequence[str], Sequence[Mapping[str, Any]]],
+    meta: Mapping[str, Any],
+    config: Any,
+    figures: Mapping[str, Any],
+    quality: Any,
+) -> dict:
+    """Write a run folder's table and ``summary.json`` into ``out`` (made if missing): ``table``
+    is (file name, columns, a row per scan or step) written as CSV; the summary holds ``meta``
+    (the run's settings), the ``config`` (a dataclass), ``figures``, the map ``quality`` (a
+    dataclass) and the library versions, in that order. The summary."""
+    out.mkdir(parents=True, exist_ok=True)
+    name, columns, rows = table
+    with open(out / name, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(columns))
+        writer.writeheader()
+        writer.writerows(rows)
+    summary = {**meta, "config": to_dict(config), **figures, "quality": asdict(quality),
+               "versions": versions()}  # fmt: skip
+    (out / "summary.json").write_text(dumps_json(summary) + "\n", encoding="utf-8")
     return summary
 
 

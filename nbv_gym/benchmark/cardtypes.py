@@ -30,6 +30,8 @@ class PartDescription(TypedDict):
     time_budget_s: NotRequired[float | None]
     runs: int
     lidar: NotRequired[str]
+    robots: NotRequired[int]
+    q_target: NotRequired[float]
 
 
 class PartEntry(PartDescription):
@@ -62,9 +64,19 @@ PolicyEntry = TypedDict(
 )
 
 
+class RobotEntry(TypedDict):
+    """One robot of a team run's ``per_robot`` (schema ``$defs/robot``): its scans after its
+    first, its path (m) and the change of Q of its own scans."""
+
+    steps: int
+    path_length_m: float
+    delta_q: float
+
+
 class RunEntry(TypedDict):
     """One run of ``runs`` (schema ``$defs/run``; ``run_v2`` makes the effort figures required
-    from protocol version 2 on)."""
+    from protocol version 2 on). The team protocol's runs add ``time_to_q_s`` to
+    ``contribution_spread``."""
 
     split: str
     task: str
@@ -86,6 +98,11 @@ class RunEntry(TypedDict):
     q_path: NotRequired[Sequence[Figure]]
     decision_time_s: Figure
     wall_time_s: float
+    time_to_q_s: NotRequired[Figure]
+    per_robot: NotRequired[list[RobotEntry]]
+    overlap_rate: NotRequired[float]
+    longest_path_m: NotRequired[float]
+    contribution_spread: NotRequired[float]
 
 
 class Summary(TypedDict):

@@ -3,19 +3,19 @@ band, and performance profiles per split."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from nbv_gym.benchmark.ranking import Entry, ranked, split_metric
-from nbv_gym.benchmark.suites import SPLIT_LABELS
+from nbv_gym.benchmark.suites import SPLIT_LABELS, SplitLabels
 from nbv_gym.reporting.formatting import printable
 
 
 def save_q_time(entries: list[Entry], path: Path) -> Path:
     """Draw mean Q against elapsed time on the ranking split per entry, with the interquartile
     band (the scorecards' ``effort.q_time``), to ``path`` (PNG) and its SVG twin."""
-    from nbv_gym.benchmark.curves import TIME_GRID_S
     from nbv_gym.reporting.formatting import figure, policy_colours
     from nbv_gym.reporting.html import save_figure
 
@@ -30,10 +30,9 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
         if not curve:
             continue
         colour, style = colours[entry.label], "--" if entry.oracle else "-"
-        ax.plot(
-            TIME_GRID_S, curve["mean"], style, color=colour, label=printable(entry.label), lw=1.4
-        )
-        ax.fill_between(TIME_GRID_S, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
+        grid = _time_grid(entry)
+        ax.plot(grid, curve["mean"], style, color=colour, label=printable(entry.label), lw=1.4)
+        ax.fill_between(grid, curve["low"], curve["high"], color=colour, alpha=0.12, lw=0)
     ax.set_xlabel("elapsed time (s): path / speed + scans × scan time")
     ax.set_ylabel(f"Q ({ordered[0].rank_split} split, mean and interquartile band)")
     ax.grid(alpha=0.3)
@@ -42,9 +41,19 @@ def save_q_time(entries: list[Entry], path: Path) -> Path:
     return save_figure(fig, path)
 
 
-def save_profiles(entries: list[Entry], path: Path) -> Path:
-    """Draw the performance profiles of every entry (one panel per split of
-    :data:`~nbv_gym.benchmark.suites.SPLIT_LABELS`) to ``path`` (PNG) and its SVG twin."""
+def _time_grid(entry: Entry) -> tuple[float, ...]:
+    """The time grid of the entry's curves on its ranking split (a team part's is longer)."""
+    from nbv_gym.benchmark.curves import time_grid
+
+    parts = entry.card["suite"]["parts"]
+    return time_grid(next(p for p in parts if p["split"] == entry.rank_split))
+
+
+def save_profiles(
+    entries: list[Entry], path: Path, splits: Mapping[str, SplitLabels] = SPLIT_LABELS
+) -> Path:
+    """Draw the performance profiles of every entry (one panel per split of ``splits``, by
+    default :data:`~nbv_gym.benchmark.suites.SPLIT_LABELS`) to ``path`` (PNG) and its SVG twin."""
     from nbv_gym.reporting.formatting import figure, policy_colours
     from nbv_gym.reporting.html import save_figure
     from nbv_gym.reporting.inference import performance_profile
@@ -52,9 +61,9 @@ def save_profiles(entries: list[Entry], path: Path) -> Path:
     players, oracles = ranked(entries)
     ordered = [*players, *oracles]
     colours = policy_colours([e.label for e in ordered])
-    fig = figure(5.0 * len(SPLIT_LABELS), 4.4)
-    axes = fig.subplots(1, len(SPLIT_LABELS), squeeze=False)[0]
-    for ax, (split, labels) in zip(axes, SPLIT_LABELS.items(), strict=True):
+    fig = figure(5.0 * len(splits), 4.4)
+    axes = fig.subplots(1, len(splits), squeeze=False)[0]
+    for ax, (split, labels) in zip(axes, splits.items(), strict=True):
         metric = split_metric(entries, split)
         data = {e.label: e.runs(split, metric) for e in ordered}
         finite = np.concatenate([v[np.isfinite(v)] for v, _ in data.values()] + [np.zeros(1)])

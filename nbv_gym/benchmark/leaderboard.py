@@ -40,11 +40,13 @@ from nbv_gym.benchmark.ranking import (
     Entry,
     baseline,
     improvement,
+    is_team,
     pareto_dominated,
     ranked,
 )
 from nbv_gym.benchmark.scorecard import decision_text, interval_text, load_scorecard
 from nbv_gym.benchmark.suites import SHIFT_SPLIT, SPLIT_LABELS
+from nbv_gym.benchmark.teamboard import check_one_protocol, write_team_board
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.reporting.formatting import (
     estimate_text,
@@ -128,8 +130,8 @@ def _given_card(path: Path) -> Scorecard:
     _check_shipped_suite(card, path)
     if not any(split in card["aggregates"] for split in RANK_SPLITS):
         raise LeaderboardError(
-            f"{path} has no time-task split ({' or '.join(RANK_SPLITS)}), which ranks the "
-            "leaderboard; score the policy on a suite with one (`nbv-gym score POLICY --suite "
+            f"{path} has no time-task split ({' or '.join(RANK_SPLITS[:2])}), nor a team one "
+            f"({' or '.join(RANK_SPLITS[2:])}), which ranks the leaderboard; score the policy on a suite with one (`nbv-gym score POLICY --suite "
             "standard`)."
         )
     return card
@@ -168,6 +170,7 @@ def check_comparable(entries: list[Entry]) -> None:
     """Raise :class:`LeaderboardError` naming each source's suite and protocol version unless all
     ``entries`` share one suite name and protocol version, every split two of them hold is one
     part (its hash), and all rank by one split."""
+    check_one_protocol(entries)
     identities: dict[tuple[str, str, int, str], list[str]] = {}
     hashes: dict[str, set[str]] = {}
     for entry in entries:
@@ -261,6 +264,8 @@ def build_leaderboard(
 
     check_owner(out, "leaderboard")  # another command's folder fails before any work
     entries = gather(paths, references, suite)
+    if is_team(entries[0].card):
+        return Leaderboard(*write_team_board(entries, out, verify))
     verified = verify_entries(entries, verify, verify_seed, say) if verify else []
     pending = _pending_references(entries) if references else ""
     say(f"ranking {len(entries)} scorecards: P(better than {baseline(entries).label}) with its "

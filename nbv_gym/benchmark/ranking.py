@@ -12,15 +12,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from nbv_gym.benchmark.cardtypes import Aggregate, Effort, Metric, Scorecard, value_of
-from nbv_gym.benchmark.suites import HEADLINE_SPLIT, SUITES
+from nbv_gym.benchmark.suites import HEADLINE_SPLIT, SUITES, TEAM_RANK_SPLITS
 
 if TYPE_CHECKING:
     from nbv_gym.reporting.inference import Interval
 
 #: The splits whose score ranks the table, the first a scorecard has: the time task's test split,
 #: else (a suite on your own worlds, ``nbv-gym score --world``, has no test split) the time task
-#: on its worlds.
-RANK_SPLITS = (HEADLINE_SPLIT, "time-benchmark")
+#: on its worlds; a team scorecard's: the largest team's test split.
+RANK_SPLITS = (HEADLINE_SPLIT, "time-benchmark", *TEAM_RANK_SPLITS)
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,11 @@ class Entry:
         given = [value_of(run, metric) for run in runs]
         values = np.array([np.nan if value is None else value for value in given], float)
         return values, [(r["world"], r["noise"]) for r in runs]
+
+
+def is_team(card: Scorecard) -> bool:
+    """Whether ``card`` is of the team protocol (its parts name their ``robots``)."""
+    return any("robots" in part for part in card["suite"]["parts"])
 
 
 def rank_split(card: Scorecard) -> str:

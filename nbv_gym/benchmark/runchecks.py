@@ -5,8 +5,10 @@ disagree, and what (the validation refuses the card in one line naming the run a
 
 - **the clock**: ``elapsed_s`` is exactly what the effort model gives for the run's path and
   scans (``path_length_m / speed + steps × scan time``, :class:`~nbv_gym.core.protocol.EffortModel`;
-  every suite runs its defaults), and a time-task run ends within its part's budget; a budget
-  or explore run takes no more scans than its part allows;
+  every suite runs its defaults) — a team run's is its latest robot's clock, from that robot's
+  own path and scans, and its path and scans are the sums of its robots' —, and a time-task run
+  ends within its part's budget; a budget or explore run takes no more scans than its part
+  allows;
 - **the curves**: ``q_time`` and ``q_path`` both start at Q after the first scan, and every
   point at or past the run's end (its elapsed time, its path) holds its final Q, rounded as the
   curves are (:data:`~nbv_gym.benchmark.curves.CURVE_DECIMALS`);
@@ -28,7 +30,7 @@ from __future__ import annotations
 from itertools import pairwise
 
 from nbv_gym.benchmark.cardtypes import PartEntry, RunEntry, Scorecard, value_of
-from nbv_gym.benchmark.curves import CURVE_DECIMALS, PATH_GRID_M, TIME_GRID_S
+from nbv_gym.benchmark.curves import CURVE_DECIMALS, PATH_GRID_M, TIME_GRID_S, time_grid
 from nbv_gym.core.protocol import DISCOVERED_TARGET, EffortModel
 
 #: The slack of the area check beyond the curve's own falls: the rounding of its samples.
@@ -60,6 +62,8 @@ def _clock(run: RunEntry, part: PartEntry) -> str | None:
     if "elapsed_s" not in run:
         return None
     effort = EffortModel()  # the suites' (nbv-gym score has no effort options)
+    if "per_robot" in run:
+        return _team_clock(run, effort)
     expected = effort.elapsed_s(run["path_length_m"], run["steps"])
     if run["elapsed_s"] != expected:
         return (
@@ -67,6 +71,20 @@ def _clock(run: RunEntry, part: PartEntry) -> str | None:
             f"(path_length_m {run['path_length_m']:.12g} m / {effort.speed_mps:g} m/s + steps "
             f"{run['steps']} × {effort.scan_time_s:g} s)"
         )
+    return None
+
+
+def _team_clock(run: RunEntry, effort: EffortModel) -> str | None:
+    """A team run's clock, path and scans against its robots' (:func:`_clock`)."""
+    robots = run["per_robot"]
+    path = float(sum(robot["path_length_m"] for robot in robots))
+    steps = sum(robot["steps"] for robot in robots)
+    latest = max(effort.elapsed_s(robot["path_length_m"], robot["steps"]) for robot in robots)
+    for name, held, expected in (("path_length_m", run["path_length_m"], path),
+                                 ("steps", run["steps"], steps),
+                                 ("elapsed_s", run["elapsed_s"], latest)):  # fmt: skip
+        if held != expected:
+            return f"{name} is {held:.12g} but its robots' (per_robot) give {expected:.12g}"
     return None
 
 
@@ -98,7 +116,7 @@ def _curves(run: RunEntry, part: PartEntry) -> str | None:
         )
     final = round(value_of(run, "q"), CURVE_DECIMALS)
     for name, grid, end in (
-        ("q_time", TIME_GRID_S, run.get("elapsed_s")),
+        ("q_time", time_grid(part), run.get("elapsed_s")),
         ("q_path", PATH_GRID_M, run["path_length_m"]),
     ):
         for k, (at, value) in enumerate(zip(grid, value_of(run, name), strict=True)):
@@ -120,7 +138,7 @@ def _area(run: RunEntry, part: PartEntry) -> str | None:
     if area is None:
         return "q_time_auc is null in a time-task run"
     q_time, q = value_of(run, "q_time"), value_of(run, "q")
-    low, high = area_bounds(q_time, q, value_of(part, "time_budget_s"))
+    low, high = area_bounds(q_time, q, value_of(part, "time_budget_s"), time_grid(part))
     if not low <= area <= high:
         return (
             f"q_time_auc is {area:.6g} but its own Q(t) samples bound it to [{low:.6g}, {high:.6g}]"
@@ -128,16 +146,18 @@ def _area(run: RunEntry, part: PartEntry) -> str | None:
     return None
 
 
-def area_bounds(q_time: list[float], final_q: float, budget_s: float) -> tuple[float, float]:
+def area_bounds(
+    q_time: list[float], final_q: float, budget_s: float, grid: tuple[float, ...] = TIME_GRID_S
+) -> tuple[float, float]:
     """The range the normalised area under Q(t) over [0, ``budget_s``] may take given Q on the
-    time grid (:data:`~nbv_gym.benchmark.curves.TIME_GRID_S`) and the run's final Q: per
+    time ``grid`` (:data:`~nbv_gym.benchmark.curves.TIME_GRID_S`, or a team run's) and the run's final Q: per
     interval of the grid within the budget, Q between the samples at its ends (past the grid's
     end, between its last sample and the final Q) — the left and right Riemann sums of a rising
     curve —, widened by the largest fall between two samples and :data:`AREA_SLACK`."""
     low = high = 0.0
-    for k, start in enumerate(TIME_GRID_S):
-        last = k + 1 == len(TIME_GRID_S)
-        stop = budget_s if last else min(TIME_GRID_S[k + 1], budget_s)
+    for k, start in enumerate(grid):
+        last = k + 1 == len(grid)
+        stop = budget_s if last else min(grid[k + 1], budget_s)
         if stop <= start:
             break
         after = final_q if last else q_time[k + 1]

@@ -18,7 +18,10 @@ and fixes them; every loaded card is checked against it):
   :data:`~nbv_gym.benchmark.curves.TIME_GRID_S`, ``q_path`` on
   :data:`~nbv_gym.benchmark.curves.PATH_GRID_M`; ``q_time_auc``: the normalised area under Q(t)
   over the time task's budget, null in the other tasks), decision time (mean seconds of the
-  policy's ``act`` per step) and the episode's wall time;
+  policy's ``act`` per step) and the episode's wall time; a team run (the team suite's parts
+  name their ``robots``) adds ``time_to_q_s``, ``per_robot``, ``overlap_rate``,
+  ``longest_path_m`` and ``contribution_spread`` and keeps ``q_time`` on
+  :data:`~nbv_gym.benchmark.curves.TEAM_TIME_GRID_S` (:mod:`nbv_gym.benchmark.teamrun`);
 - ``aggregates``: per split, the split's score (``metric``: the area under Q(t) for the time
   task, Q after the budget for the budget task, Q_paper at 70 % for the explore task) over all
   its runs (``all``) and per asset type (``by_asset``): the interquartile mean and the mean,
@@ -86,6 +89,9 @@ MEAN_FIGURES = (
     "steps",
     "decision_time_s",
 )
+#: Figures of a team protocol's run whose plain means its split's aggregates add
+#: (``time_to_q_s``: over the runs that reached the Q target).
+TEAM_MEAN_FIGURES = ("overlap_rate", "longest_path_m", "contribution_spread", "time_to_q_s")
 #: Seed of the bootstrap (a scorecard is the same whenever its runs are).
 BOOTSTRAP_SEED = 0
 #: The time task's score (:data:`~nbv_gym.benchmark.suites.TASK_METRICS`).
@@ -198,7 +204,8 @@ def card_aggregates(
 
 def aggregate(runs: Sequence[RunEntry], split: str, metric: Metric) -> Aggregate:
     """Every aggregate of one split: ``metric`` summarised over all runs and per asset type
-    (:func:`summary`), the plain means of :data:`MEAN_FIGURES`, and, for runs that carry Q over
+    (:func:`summary`), the plain means of :data:`MEAN_FIGURES` (and of
+    :data:`TEAM_MEAN_FIGURES` for team runs), and, for runs that carry Q over
     effort (protocol version 2 on), ``effort``: Q at matched path, Q at the time budget (time
     task), the mean elapsed time and the mean curves (:func:`effort_aggregates`)."""
     mine = [run for run in runs if run["split"] == split]
@@ -211,6 +218,9 @@ def aggregate(runs: Sequence[RunEntry], split: str, metric: Metric) -> Aggregate
         },
         "means": {name: _mean([value_of(run, name) for run in mine]) for name in MEAN_FIGURES},
     }
+    if mine and all("per_robot" in run for run in mine):
+        out["means"] |= {name: _mean([value_of(run, name) for run in mine])
+                         for name in TEAM_MEAN_FIGURES}  # fmt: skip
     if mine and all("q_path" in run for run in mine):
         out["effort"] = effort_aggregates(mine, split, metric)
     return out

@@ -18,6 +18,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -48,16 +49,48 @@ def score_policy(
     address or ``"local"`` (as for sweeps; the runs and so the scorecard are the same as a
     local scoring's); ``python_path``: folders where a ``module:Class`` policy is found;
     ``say``: where phase messages go (default: stderr)."""
+    from nbv_gym.benchmark.teamrun import score_team, team_policy_identity
     from nbv_gym.core.outputs import claim_folder
-    from nbv_gym.sweep.runner import default_workers, run_sweep
+    from nbv_gym.sweep.runner import default_workers
 
     say = say or _stderr
     start = time.perf_counter()
+    _check_kind(policy, suite)
+    identity = team_policy_identity(policy) if suite.team else policy_identity(policy)
     out = claim_folder(Path(out), "score")  # not a run's, sweep's or training's folder
-    identity = policy_identity(policy)
     _check_same_policy(out, policy)
     sources = write_world_specs(suite, out / "worlds")
     say(f"scoring {policy} on suite {suite.name} ({suite.runs} runs) → {out}")
+    if suite.team:
+        specs = partial(_part_specs, suite, policy=policy, sources=sources)
+        runs = score_team(policy, suite, out, workers or default_workers(), specs, say)
+    else:
+        how = (workers, scheduler, python_path, progress)
+        runs = _score_parts(policy, suite, out, sources, how, say)
+        identity["oracle"] = ran_as_oracle(out, suite)  # what the runs used, not what it declares
+    timing: Timing = {
+        "wall_time_s": time.perf_counter() - start,
+        "workers": workers or default_workers(),
+    }
+    card = build_scorecard(suite, identity, runs, timing)
+    write_scorecard(card, out)
+    return card
+
+
+def _score_parts(
+    policy: str,
+    suite: Suite,
+    out: Path,
+    sources: dict[str, str],
+    how: tuple,
+    say: Callable[[str], None],
+) -> list[RunEntry]:
+    """Sweep every part of a single-robot ``suite`` for ``policy`` into ``out`` (``how``:
+    workers, scheduler, python path, progress, as :func:`~nbv_gym.sweep.runner.run_sweep`
+    takes them); the runs' figures, in the suite's order."""
+    from nbv_gym.sweep.runner import run_sweep
+
+    workers, scheduler, python_path, progress = how
     for part in suite.parts:
         say(f"{part.split}: {part.task} task, {part.runs} runs on {len(part.worlds)} worlds")
         summary = run_sweep(
@@ -70,15 +103,32 @@ def score_policy(
                 f"{out / 'parts' / part.split / 'failures'}); no scorecard was written. Rerun the "
                 "same command to retry them: finished runs are kept."
             )
-    runs = [row for part in suite.parts for row in part_runs(suite, part, policy, sources, out)]
-    identity["oracle"] = ran_as_oracle(out, suite)  # what the runs used, not what it declares
-    timing: Timing = {
-        "wall_time_s": time.perf_counter() - start,
-        "workers": workers or default_workers(),
-    }
-    card = build_scorecard(suite, identity, runs, timing)
-    write_scorecard(card, out)
-    return card
+    return [row for part in suite.parts for row in part_runs(suite, part, policy, sources, out)]
+
+
+def _part_specs(suite: Suite, part: Part, policy: str, sources: dict[str, str]) -> list:
+    """The runs of the team ``part`` for ``policy`` as the sweep orders and seeds them (a
+    sweep names single-robot policies only; its seeds never depend on the policy)."""
+    from dataclasses import replace
+
+    specs = part_config(suite, part, _SEEDING_POLICY, sources).runs()
+    return [replace(spec, policy=policy) for spec in specs]
+
+
+#: A single-robot policy's name that stands for a team policy's where the sweep's run seeds are
+#: drawn (they depend on the suite's seed, the world, the noise level and the repeat only).
+_SEEDING_POLICY = "closest-frontier"
+
+
+def _check_kind(policy: str, suite: Suite) -> None:
+    """:class:`ScoreError` for a team policy's name on a single-robot suite."""
+    from nbv_gym.team.policies import TEAM_POLICIES
+
+    if not suite.team and policy in TEAM_POLICIES:
+        raise ScoreError(
+            f"{policy} is a team policy; score it on the team suite (`nbv-gym score {policy} "
+            "--suite team`)"
+        )
 
 
 def _check_same_policy(out: Path, policy: str) -> None:

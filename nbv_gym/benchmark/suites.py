@@ -18,6 +18,14 @@ repeats under one task:
 - ``explore``: the paper's protocol (explore until 70 % of the ground is discovered, at most
   100 steps) on the twelve benchmark worlds; score: Q_paper at 70 % discovered.
 
+The ``team`` suite is the team protocol (:mod:`nbv_gym.team`): parts whose ``robots`` is set run
+the time task with that many robots on one map and one clock — ``team2-test``, ``team3-test``
+(the test split), ``team2-shift``, ``team3-shift`` (the shift split) — and ``solo2-test``,
+``solo3-test``: one robot on the test split with N × the budget, the same total robot time as a
+team of N. Score: the normalised area under the team's Q(t) over its budget (equal to the mean
+Q over the total robot time, so a team of N over T and one robot over N × T compare). Its
+scorecards rank apart from single-robot ones.
+
 Run seeds derive from the suite's seed, the world, the noise level and the repeat
 (:meth:`~nbv_gym.sweep.config.SweepConfig.run_seed`), never from the policy, so every policy meets
 the same first scan and localisation noise (paired runs). ``quick``'s runs are a subset of
@@ -55,6 +63,8 @@ from nbv_gym.core.protocol import (
     task_episode,
 )
 from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS, lidar_config, lidar_preset
+from nbv_gym.team.episode import Q_TARGET
+from nbv_gym.team.simulator import check_team_size
 from nbv_gym.worlds.spec import AnySpec, WorldSpec, load_spec
 
 #: Version of the scoring protocol (per-run figures, aggregates, statistics); scorecards of
@@ -77,6 +87,8 @@ METRIC_LABELS = {
 HEADLINE_SPLIT = "time-test"
 #: The split of the time task on worlds outside every training distribution, shown beside it.
 SHIFT_SPLIT = "time-shift"
+#: The team sizes of the team suite.
+TEAM_SIZES = (2, 3)
 
 
 @dataclass(frozen=True)
@@ -116,6 +128,25 @@ SPLIT_LABELS = {
     ),
 }
 
+#: The team suite's splits a team leaderboard shows as columns, in order, with their labels
+#: (a solo part's scores stand in its team size's test column, on the one-robot rows).
+TEAM_SPLIT_LABELS = {
+    f"team{n}-{split}": SplitLabels(
+        f"area under the team's Q(t) / budget, {n} robots, {split} split (equal team time)",
+        f"{n} robots, {split}: IQM area under Q(t)",
+    )
+    for n in TEAM_SIZES
+    for split in ("test", "shift")
+}
+#: The splits that rank a team leaderboard, the first a scorecard has.
+TEAM_RANK_SPLITS = tuple(f"team{n}-test" for n in reversed(TEAM_SIZES))
+
+
+def solo_split(n_robots: int) -> str:
+    """The split of one robot with ``n_robots`` × the budget (the team of ``n_robots``'s total
+    robot time) on the test worlds."""
+    return f"solo{n_robots}-test"
+
 
 @dataclass(frozen=True)
 class Part:
@@ -123,7 +154,8 @@ class Part:
     or ``explore``), ``worlds`` (benchmark world names or generated :class:`WorldSpec` s),
     localisation ``noise`` levels and ``repeats`` per world and noise level; ``budget_scans``
     (budget task), ``time_budget_s`` (time task) and ``max_steps`` (explore task) as in
-    :mod:`nbv_gym.core.protocol`."""
+    :mod:`nbv_gym.core.protocol`; ``robots``: None for the single-robot protocol, else the
+    team protocol's robots (time task only; 1: one robot run as a team of one)."""
 
     split: str
     task: str
@@ -134,10 +166,19 @@ class Part:
     max_steps: int = EXPLORE_MAX_STEPS
     time_budget_s: float = TIME_BUDGET_S
     lidar: str = DEFAULT_LIDAR
+    robots: int | None = None
 
     def __post_init__(self) -> None:
         check_task(self.task)
         lidar_preset(self.lidar)
+        if self.robots is not None:
+            check_team_part(self.robots, self.task)
+
+    @property
+    def team(self) -> bool:
+        """Whether the part is of the team protocol (``robots`` set: run with the team task's
+        runner, :mod:`nbv_gym.benchmark.teamrun`), even with one robot."""
+        return self.robots is not None
 
     @property
     def metric(self) -> Metric:
@@ -199,7 +240,18 @@ class Part:
         }
         if self.lidar != DEFAULT_LIDAR:  # only another preset is named: the benchmark's
             described["lidar"] = self.lidar  # scorecards keep their content
+        if self.robots is not None:  # the team protocol's parts only: single-robot parts
+            described["robots"] = self.robots  # keep their content and hashes
+            described["q_target"] = Q_TARGET
         return described
+
+
+def check_team_part(robots: object, task: str) -> None:
+    """ConfigError unless ``robots`` is a team size (an integer ≥ 1) and ``task`` the time
+    task (the team task's)."""
+    check_team_size(robots, None)
+    if task != "time":
+        raise ConfigError(f"a team part runs the time task (the team task), not the {task} task")
 
 
 @dataclass(frozen=True)
@@ -210,6 +262,18 @@ class Suite:
     parts: tuple[Part, ...]
     seed: int
     description: str = ""
+
+    def __post_init__(self) -> None:
+        if len({part.team for part in self.parts}) > 1:
+            raise ConfigError(
+                f"suite {self.name}: its parts are all of the team protocol (robots set) or "
+                "none; a scorecard ranks with one kind only"
+            )
+
+    @property
+    def team(self) -> bool:
+        """Whether the suite is of the team protocol (its parts' ``robots`` set)."""
+        return any(part.team for part in self.parts)
 
     @property
     def runs(self) -> int:
@@ -341,8 +405,23 @@ QUICK = Suite(
     SUITE_SEED,
     "the standard suite's shape, small: pp1-* and test-00…03, noise 0, 1, 2, 2 repeats",
 )
+TEAM = Suite(
+    "team",
+    (
+        *(Part(f"team{n}-test", "time", split_worlds(), robots=n) for n in TEAM_SIZES),
+        *(Part(f"team{n}-shift", "time", shift_worlds(), robots=n) for n in TEAM_SIZES),
+        *(
+            Part(solo_split(n), "time", split_worlds(), robots=1, time_budget_s=n * TIME_BUDGET_S)
+            for n in TEAM_SIZES
+        ),
+    ),
+    SUITE_SEED,
+    "the team task (N robots on one map and one clock, 600 s of team time, travel and scans "
+    "charged) with 2 and 3 robots on the 16 test worlds and the 12 shift worlds, and one robot "
+    "with N × 600 s on the test worlds (the same total robot time); noise 0, 1, 2; 3 repeats",
+)
 #: The shipped suites by name.
-SUITES = {suite.name: suite for suite in (STANDARD, QUICK)}
+SUITES = {suite.name: suite for suite in (STANDARD, QUICK, TEAM)}
 
 
 def get_suite(name: str) -> Suite:

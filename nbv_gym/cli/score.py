@@ -22,7 +22,12 @@ def score(
     ],
     out: Annotated[Path, typer.Option(help="Folder for the runs and the scorecard.")],
     suite: Annotated[
-        str, typer.Option(help="Evaluation suite: standard (the score) or quick (for trying).")
+        str,
+        typer.Option(
+            help="Evaluation suite: standard (the score), quick (for trying) or team (2 and 3 "
+            "robots on one map; POLICY a team policy such as hungarian-frontier, or a "
+            "single-robot policy every robot runs uncoordinated)."
+        ),
     ] = "standard",
     workers: Annotated[
         int | None,
@@ -61,7 +66,9 @@ def score(
     split and asset type, the IQM and mean with 95 % stratified bootstrap intervals and the
     optimality gap, and Q at the time budget and at matched path (25–200 m). Killed, the same command resumes.
     Compare scorecards with `nbv-gym leaderboard`. A module:Class policy is imported from the
-    current folder. Another --lidar than os1-16 makes another suite (its scorecards rank apart).
+    current folder. The team suite runs the team task (600 s of team time) with 2 and 3 robots
+    on the test and shift worlds and one robot with 2 × and 3 × 600 s on the test worlds (the
+    same total robot time: a row on the team leaderboard); its scorecards rank apart. Another --lidar than os1-16 makes another suite (its scorecards rank apart).
 
     Examples:
 
@@ -73,16 +80,19 @@ def score(
           --out scores/cf-park
       nbv-gym score closest-frontier --suite quick --lidar vlp-16 \\
           --out scores/cf-vlp16
+      nbv-gym score hungarian-frontier --suite team --out scores/hf-team
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
     """
     from nbv_gym.benchmark.scorecard import interval_text
     from nbv_gym.benchmark.suiterun import score_policy
     from nbv_gym.benchmark.suites import get_suite
+    from nbv_gym.benchmark.teamrun import check_team_options
     from nbv_gym.cli.sweep import resumable
     from nbv_gym.core.config import check
     from nbv_gym.sweep.backends import reach_scheduler
 
     check(workers is None or workers >= 1, "--workers", f"must be ≥ 1, got {workers}")
+    check_team_options(get_suite(suite), world, scheduler)
     reach_scheduler(scheduler)  # a bad or silent scheduler fails before any folder
     chosen = get_suite(suite) if lidar is None else get_suite(suite).with_lidar(lidar)
     chosen = chosen.with_worlds(_absolute(world)) if world else chosen
@@ -131,7 +141,7 @@ def leaderboard(
         str | None,
         typer.Option(
             help="With --references and no scorecard: the suite whose references are ranked "
-            "(standard, quick) [default: standard]."
+            "(standard, quick; team has none yet) [default: standard]."
         ),
     ] = None,
     verify: Annotated[
@@ -162,6 +172,11 @@ def leaderboard(
     Scorecards of different suites or protocol versions are refused; shipped references of
     another protocol version are left out, and the board says they are pending.
 
+    Team scorecards (`nbv-gym score POLICY --suite team`) rank on their own board, never with
+    single-robot ones: by the IQM of the area under the team's Q(t), with the overlap rate and
+    the longest robot path beside it, and a row per policy run as one robot with N × the budget
+    (the same total robot time): is a team worth it?
+
     Every scorecard is checked against the schema, its suite and itself (its aggregates from
     its runs; each run's clock, curves and area under Q(t)). That cannot catch a forgery
     consistent with itself: --verify N re-runs N runs of each given scorecard, chosen with a
@@ -175,6 +190,7 @@ def leaderboard(
       nbv-gym leaderboard scores/mine/scorecard.json --references --out board
       nbv-gym leaderboard scores/a scores/b --out board
       nbv-gym leaderboard scores/theirs --references --verify 3 --out board
+      nbv-gym leaderboard scores/hf-team scores/uf-team --out board-team
     """
     import secrets
 

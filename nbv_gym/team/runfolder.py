@@ -6,14 +6,10 @@ colour) and ``exploration.gif``."""
 
 from __future__ import annotations
 
-import csv
-from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from nbv_gym.core.config import to_dict
-from nbv_gym.core.jsonfiles import dumps_json
-from nbv_gym.core.provenance import versions
+from nbv_gym.episode import write_run_files
 from nbv_gym.team.env import TeamEnv
 from nbv_gym.team.episode import TeamEpisodeResult
 
@@ -34,22 +30,10 @@ def write_team_run_folder(
 
     from nbv_gym.team.render import render_team_rgb
 
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "scans.csv", "w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=SCAN_COLUMNS)
-        writer.writeheader()
-        writer.writerows(result.scans)
-    summary = {
-        **meta,
-        "config": to_dict(env.config),
-        "figures": result.figures,
-        "per_robot": result.robots,
-        "n_scans": len(result.scans),
-        "wall_time_s": result.wall_time_s,
-        "quality": asdict(env.sim.shared.summary),
-        "versions": versions(),
-    }
-    (out / "summary.json").write_text(dumps_json(summary) + "\n", encoding="utf-8")
+    figures = {"figures": result.figures, "per_robot": result.robots,
+               "n_scans": len(result.scans), "wall_time_s": result.wall_time_s}  # fmt: skip
+    table = ("scans.csv", SCAN_COLUMNS, result.scans)
+    summary = write_run_files(out, table, meta, env.config, figures, env.sim.shared.summary)
     env.sim.shared.save(out)
     Image.fromarray(render_team_rgb(env.sim)).save(out / "paths.png")
     return summary

@@ -22,6 +22,7 @@ SHAPES: dict[str, dict[str, Any]] = {
     "Timing": SCHEMA["properties"]["timing"],
     "PartEntry": DEFS["part"],
     "RunEntry": DEFS["run"],
+    "RobotEntry": DEFS["robot"],
     "Summary": DEFS["summary"],
     "Aggregate": DEFS["aggregate"],
     "Effort": DEFS["aggregate"]["properties"]["effort"],

@@ -142,7 +142,7 @@ def test_the_hashed_env_config_is_the_one_the_runs_use():
 
 
 def test_suites_by_name():
-    assert get_suite("quick") is QUICK and set(SUITES) == {"standard", "quick"}
+    assert get_suite("quick") is QUICK and set(SUITES) == {"standard", "quick", "team"}
     with pytest.raises(
         UnknownNameError, match=r"Unknown suite 'standrad'\. Did you mean 'standard'"
     ):

@@ -29,9 +29,9 @@ ENTRIES = {
 
 
 def _train(values):
-    from nbv_gym.rl.config import TrainConfig
+    from nbv_gym.rl.config import train_config
 
-    return from_dict(TrainConfig, {"task": "time", **values})
+    return train_config({"task": "time", **values})
 
 
 def _sweep(key, value):

@@ -117,7 +117,7 @@ def write_world_specs(suite: Suite, folder: Path) -> dict[str, str]:
 
 def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
     """The :class:`~nbv_gym.sweep.config.SweepConfig` of ``part`` for ``policy``."""
-    from nbv_gym.sweep.config import SweepConfig, with_lidar
+    from nbv_gym.sweep.config import SweepConfig
 
     config = SweepConfig(
         name=f"{suite.name}-{part.split}",
@@ -126,12 +126,9 @@ def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
         policies=(policy,),
         repeats=part.repeats,
         seed=suite.seed,
-        max_steps=part.task.max_steps,
-        task=part.task.name,
-        budget_scans=part.task.budget_scans,
-        time_budget_s=part.task.time_budget_s,
+        task=part.task,
     )
-    return with_lidar(config, part.task.lidar)
+    return config
 
 
 def part_runs(

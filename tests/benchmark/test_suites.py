@@ -38,10 +38,12 @@ def test_standard_suite_runs_the_time_and_budget_tasks_on_both_splits_and_the_pa
     assert parts["time-shift"].world_names == tuple(w.name for w in shift_worlds())
     assert [p.task.name for p in parts.values()] == ["time"] * 3 + ["budget", "budget", "explore"]
     assert [p.metric for p in parts.values()] == ["q_time_auc"] * 3 + ["q", "q", "q_paper_70"]
-    assert parts["time-shift"].time_budget_s == parts["time-test"].time_budget_s
+    assert parts["time-shift"].task.time_budget_s == parts["time-test"].task.time_budget_s
     assert (parts["time-shift"].noise, parts["time-shift"].repeats) == ((0, 1, 2), 3)
     assert all(p.noise == (0, 1, 2) and p.repeats >= 2 for p in parts.values())
-    assert parts["benchmark"].budget_scans == 12 and parts["time-test"].time_budget_s == 600
+    assert (
+        parts["benchmark"].task.budget_scans == 12 and parts["time-test"].task.time_budget_s == 600
+    )
     assert HEADLINE_SPLIT == "time-test"
     episode = parts["time-test"].env_config().simulator.episode
     assert (episode.time_budget_s, episode.discovered_target) == (600, None)

@@ -111,8 +111,11 @@ def test_sweep_lidar_sets_the_pattern_keeps_the_default_and_refuses_a_clash():
     dense = with_lidar(config, "os1-64")
     assert dense.env_config(WORLD, 0).simulator.lidar == lidar_config("os1-64")
     assert dense.results_fingerprint() != config.results_fingerprint()
+    assert with_lidar(dense, "vlp-16").task.lidar == "vlp-16"  # a name, replaced as one
+    own = SweepConfig(worlds=(WORLD,), policies=("closest-frontier",),
+                      env={"simulator": {"lidar": {"elevation_max_rad": 0.3}}})  # fmt: skip
     with pytest.raises(ConfigError, match=r"sets env\.simulator\.lidar\.elevation_max_rad itself"):
-        with_lidar(dense, "vlp-16")
+        with_lidar(own, "vlp-16")
 
 
 def test_a_suite_with_another_lidar_is_another_suite():

@@ -11,6 +11,7 @@ import pytest
 
 from nbv_gym.core.protocol import EpisodeConfig
 from nbv_gym.env.explore import EnvConfig, ExploreEnv
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.env.views import PrivilegedInfoError
 from nbv_gym.episode import make_env, run_episode
 from nbv_gym.policies import MODELS, POLICIES, is_oracle, load_policy
@@ -77,4 +78,4 @@ def test_record_refuses_a_peeking_policy(peeking_policies, tmp_path):
     from nbv_gym.rl.dataset import record_dataset
 
     with pytest.raises(PrivilegedInfoError, match=r"read info\['world'\]"):
-        record_dataset("peeking:PeekWorld", WORLD, tmp_path, episodes=1, max_steps=1)
+        record_dataset("peeking:PeekWorld", WORLD, tmp_path, TaskConfig(max_steps=1))

@@ -92,7 +92,7 @@ def _score_parts(
 
     workers, scheduler, python_path, progress = how
     for part in suite.parts:
-        say(f"{part.split}: {part.task} task, {part.runs} runs on {len(part.worlds)} worlds")
+        say(f"{part.split}: {part.task.name} task, {part.runs} runs on {len(part.worlds)} worlds")
         summary = run_sweep(
             part_config(suite, part, policy, sources), out / "parts" / part.split,
             workers, scheduler, python_path, progress,
@@ -167,7 +167,7 @@ def write_world_specs(suite: Suite, folder: Path) -> dict[str, str]:
 
 def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
     """The :class:`~nbv_gym.sweep.config.SweepConfig` of ``part`` for ``policy``."""
-    from nbv_gym.sweep.config import SweepConfig, with_lidar
+    from nbv_gym.sweep.config import SweepConfig
 
     config = SweepConfig(
         name=f"{suite.name}-{part.split}",
@@ -176,12 +176,9 @@ def part_config(suite: Suite, part: Part, policy: str, sources: dict[str, str]):
         policies=(policy,),
         repeats=part.repeats,
         seed=suite.seed,
-        max_steps=part.max_steps,
         task=part.task,
-        budget_scans=part.budget_scans,
-        time_budget_s=part.time_budget_s,
     )
-    return with_lidar(config, part.lidar)
+    return config
 
 
 def part_runs(
@@ -233,14 +230,14 @@ def run_figures(part: Part, record: dict[str, Any]) -> RunEntry:
     q = np.array([step["q"] for step in steps], float)
     elapsed = np.array([step["elapsed_s"] for step in steps], float)
     path = np.array([step["path_length_m"] for step in steps], float)
-    auc = area_under(elapsed, q, part.time_budget_s) if part.task == "time" else None
+    auc = area_under(elapsed, q, part.task.time_budget_s) if part.task.name == "time" else None
     target = DISCOVERED_TARGET
     discovered = np.array([step["discovered"] for step in steps], float)
     q_paper = np.array([step["q_paper"] for step in steps], float)
     q_paper_70 = q_curve(discovered, q_paper, np.array([target], float))[0]
     return {
         "split": part.split,
-        "task": part.task,
+        "task": part.task.name,
         "world": run["world"],
         "asset": run["asset"],
         "noise": run["noise"],

@@ -54,15 +54,9 @@ from nbv_gym.benchmark.shiftsplit import shift_worlds
 from nbv_gym.benchmark.testsplit import split_worlds
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError
-from nbv_gym.core.protocol import (
-    BUDGET_SCANS,
-    EXPLORE_MAX_STEPS,
-    NOISE_LEVELS,
-    TIME_BUDGET_S,
-    check_task,
-    task_episode,
-)
-from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS, lidar_config, lidar_preset
+from nbv_gym.core.protocol import NOISE_LEVELS
+from nbv_gym.env.task import TaskConfig
+from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
 from nbv_gym.team.episode import Q_TARGET
 from nbv_gym.team.simulator import check_team_size
 from nbv_gym.worlds.spec import AnySpec, WorldSpec, load_spec
@@ -150,29 +144,24 @@ def solo_split(n_robots: int) -> str:
 
 @dataclass(frozen=True)
 class Part:
-    """One sweep of a suite: ``split`` (its name in the scorecard), ``task`` (``time``, ``budget``
-    or ``explore``), ``worlds`` (benchmark world names or generated :class:`WorldSpec` s),
-    localisation ``noise`` levels and ``repeats`` per world and noise level; ``budget_scans``
-    (budget task), ``time_budget_s`` (time task) and ``max_steps`` (explore task) as in
-    :mod:`nbv_gym.core.protocol`; ``robots``: None for the single-robot protocol, else the
-    team protocol's robots (time task only; 1: one robot run as a team of one)."""
+    """One sweep of a suite: ``split`` (its name in the scorecard), ``task`` (its settings,
+    :class:`~nbv_gym.env.task.TaskConfig`: the task — ``time``, ``budget`` or ``explore`` —, its
+    budget or truncation and the lidar preset; its ``noise`` is replaced by each of the part's),
+    ``worlds`` (benchmark world names or generated :class:`WorldSpec` s), localisation ``noise``
+    levels (the part's grid) and ``repeats`` per world and noise level; ``robots``: None for the
+    single-robot protocol, else the team protocol's robots (time task only; 1: one robot run as
+    a team of one)."""
 
     split: str
-    task: str
+    task: TaskConfig
     worlds: tuple[str | WorldSpec, ...]
     noise: tuple[int, ...] = tuple(NOISE_LEVELS)
     repeats: int = 3
-    budget_scans: int = BUDGET_SCANS
-    max_steps: int = EXPLORE_MAX_STEPS
-    time_budget_s: float = TIME_BUDGET_S
-    lidar: str = DEFAULT_LIDAR
     robots: int | None = None
 
     def __post_init__(self) -> None:
-        check_task(self.task)
-        lidar_preset(self.lidar)
         if self.robots is not None:
-            check_team_part(self.robots, self.task)
+            check_team_part(self.robots, self.task.name)
 
     @property
     def team(self) -> bool:
@@ -183,7 +172,7 @@ class Part:
     @property
     def metric(self) -> Metric:
         """The per-run score of this part (:data:`TASK_METRICS`)."""
-        return TASK_METRICS[self.task]
+        return TASK_METRICS[self.task.name]
 
     @property
     def world_names(self) -> tuple[str, ...]:
@@ -205,11 +194,9 @@ class Part:
         noise aside): the defaults, with the task's episode settings."""
         from nbv_gym.env.explore import EnvConfig
 
-        config = EnvConfig()
-        episode = replace(config.simulator.episode, max_steps=self.max_steps)
-        episode = task_episode(self.task, episode, self.budget_scans, self.time_budget_s)
-        simulator = replace(config.simulator, episode=episode, lidar=lidar_config(self.lidar))
-        return replace(config, simulator=simulator)
+        config = self.task.env_config(EnvConfig().simulator.world)
+        default = EnvConfig().simulator
+        return replace(config, simulator=replace(config.simulator, noise=default.noise))
 
     def content(self) -> dict[str, Any]:
         """Everything that fixes the results of the part's runs but the suite's seed, as plain
@@ -226,20 +213,21 @@ class Part:
 
     def description(self) -> PartDescription:
         """The part as plain data for the scorecard (:meth:`Suite.identity` adds its hash)."""
+        task = self.task
         described: PartDescription = {
             "split": self.split,
-            "task": self.task,
+            "task": task.name,
             "metric": self.metric,
             "worlds": list(self.world_names),
             "noise": list(self.noise),
             "repeats": self.repeats,
-            "budget_scans": self.budget_scans if self.task == "budget" else None,
-            "max_steps": self.max_steps if self.task == "explore" else None,
-            "time_budget_s": self.time_budget_s if self.task == "time" else None,
+            "budget_scans": task.budget_scans if task.name == "budget" else None,
+            "max_steps": task.max_steps if task.name == "explore" else None,
+            "time_budget_s": task.time_budget_s if task.name == "time" else None,
             "runs": self.runs,
         }
-        if self.lidar != DEFAULT_LIDAR:  # only another preset is named: the benchmark's
-            described["lidar"] = self.lidar  # scorecards keep their content
+        if task.lidar != DEFAULT_LIDAR:  # only another preset is named: the benchmark's
+            described["lidar"] = task.lidar  # scorecards keep their content
         if self.robots is not None:  # the team protocol's parts only: single-robot parts
             described["robots"] = self.robots  # keep their content and hashes
             described["q_target"] = Q_TARGET
@@ -283,7 +271,8 @@ class Suite:
     def with_lidar(self, lidar: str) -> Suite:
         """This suite run with the lidar preset ``lidar`` (:mod:`nbv_gym.sensor.presets`); its
         content hash changes unless it is the default, so its scorecards rank apart."""
-        return replace(self, parts=tuple(replace(part, lidar=lidar) for part in self.parts))
+        parts = tuple(replace(part, task=replace(part.task, lidar=lidar)) for part in self.parts)
+        return replace(self, parts=parts)
 
     def with_worlds(self, worlds: tuple[str, ...]) -> Suite:
         """This suite's shape on your own ``worlds`` (spec files or benchmark names): its parts
@@ -347,6 +336,14 @@ class Suite:
         }
 
 
+_TIME, _BUDGET, _EXPLORE = (TaskConfig(name=task) for task in ("time", "budget", "explore"))
+
+
+def _solo(n_robots: int) -> TaskConfig:
+    """The time task of one robot with the total robot time of a team of ``n_robots``."""
+    return replace(_TIME, time_budget_s=n_robots * _TIME.time_budget_s)
+
+
 def _hash(content: dict[str, Any]) -> str:
     """SHA-256 (16 hex digits) of ``content`` as sorted JSON."""
     return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
@@ -379,12 +376,12 @@ SUITE_SEED = 7919
 STANDARD = Suite(
     "standard",
     (
-        Part("time-test", "time", split_worlds()),
-        Part("time-shift", "time", shift_worlds()),
-        Part("time-benchmark", "time", BENCHMARK_WORLDS),
-        Part("benchmark", "budget", BENCHMARK_WORLDS),
-        Part("test", "budget", split_worlds()),
-        Part("explore", "explore", BENCHMARK_WORLDS),
+        Part("time-test", _TIME, split_worlds()),
+        Part("time-shift", _TIME, shift_worlds()),
+        Part("time-benchmark", _TIME, BENCHMARK_WORLDS),
+        Part("benchmark", _BUDGET, BENCHMARK_WORLDS),
+        Part("test", _BUDGET, split_worlds()),
+        Part("explore", _EXPLORE, BENCHMARK_WORLDS),
     ),
     SUITE_SEED,
     "time task (equal robot time, travel and scans charged) and budget task (equal scans, "
@@ -396,11 +393,11 @@ _QUICK_WORLDS = tuple(w for w in BENCHMARK_WORLDS if w.startswith("pp1-"))
 QUICK = Suite(
     "quick",
     (
-        Part("time-test", "time", split_worlds(range(4)), repeats=2),
-        Part("time-benchmark", "time", _QUICK_WORLDS, repeats=2),
-        Part("benchmark", "budget", _QUICK_WORLDS, repeats=2),
-        Part("test", "budget", split_worlds(range(4)), repeats=2),
-        Part("explore", "explore", _QUICK_WORLDS, repeats=2),
+        Part("time-test", _TIME, split_worlds(range(4)), repeats=2),
+        Part("time-benchmark", _TIME, _QUICK_WORLDS, repeats=2),
+        Part("benchmark", _BUDGET, _QUICK_WORLDS, repeats=2),
+        Part("test", _BUDGET, split_worlds(range(4)), repeats=2),
+        Part("explore", _EXPLORE, _QUICK_WORLDS, repeats=2),
     ),
     SUITE_SEED,
     "the standard suite's shape, small: pp1-* and test-00…03, noise 0, 1, 2, 2 repeats",
@@ -408,12 +405,9 @@ QUICK = Suite(
 TEAM = Suite(
     "team",
     (
-        *(Part(f"team{n}-test", "time", split_worlds(), robots=n) for n in TEAM_SIZES),
-        *(Part(f"team{n}-shift", "time", shift_worlds(), robots=n) for n in TEAM_SIZES),
-        *(
-            Part(solo_split(n), "time", split_worlds(), robots=1, time_budget_s=n * TIME_BUDGET_S)
-            for n in TEAM_SIZES
-        ),
+        *(Part(f"team{n}-test", _TIME, split_worlds(), robots=n) for n in TEAM_SIZES),
+        *(Part(f"team{n}-shift", _TIME, shift_worlds(), robots=n) for n in TEAM_SIZES),
+        *(Part(solo_split(n), _solo(n), split_worlds(), robots=1) for n in TEAM_SIZES),
     ),
     SUITE_SEED,
     "the team task (N robots on one map and one clock, 600 s of team time, travel and scans "

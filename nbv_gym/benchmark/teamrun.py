@@ -80,7 +80,7 @@ def score_team(
     for part in suite.parts:
         folder = out / "parts" / part.split
         todo = [spec for spec in specs(part) if not _run_path(folder, spec).is_file()]
-        say(f"{part.split}: {part.robots} robot(s), time task of {part.time_budget_s:g} s, "
+        say(f"{part.split}: {part.robots} robot(s), time task of {part.task.time_budget_s:g} s, "
             f"{part.runs} runs ({part.runs - len(todo)} done)")  # fmt: skip
         folder.mkdir(parents=True, exist_ok=True)
         jobs = [(part, spec, policy) for spec in todo]
@@ -140,7 +140,7 @@ def team_entry(part: Part, spec: Any, asset: str, result: Any) -> RunEntry:
     q_paper_70 = float(q_curve(column["discovered"], column["q_paper"], target)[0])
     return {
         "split": part.split,
-        "task": part.task,
+        "task": part.task.name,
         "world": spec.world,
         "asset": asset,
         "noise": spec.noise,

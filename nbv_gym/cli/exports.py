@@ -18,9 +18,7 @@ from nbv_gym.cli.options import (
     SpeedOption,
     TaskOption,
     TimeBudgetOption,
-    agent_options,
-    task_episode_config,
-    task_of,
+    task_config,
 )
 from nbv_gym.cli.params import COUNT, FINITE, NOISE_HELP, NOISE_LEVEL, POSITIVE_COUNT, PROBABILITY
 from nbv_gym.mapping.mapfile import load_map
@@ -167,27 +165,18 @@ def record(
           --time-budget-s 300 --out data/ig
     """
     from nbv_gym.rl.dataset import record_dataset
-    from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_preset
+    from nbv_gym.sensor.presets import lidar_preset
 
     if lidar is not None:
         lidar_preset(lidar)  # an unknown preset fails first
-    task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
-    own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,
-                        speed_mps=speed_mps, scan_time_s=scan_time_s)  # fmt: skip
-    lidar = lidar_preset(own["lidar"] or DEFAULT_LIDAR).name
-    episode = task_episode_config(
-        task, budget_scans, max_steps, own["time_budget_s"], own["speed_mps"], own["scan_time_s"]
-    )
-    steps = episode.max_steps
-    effort = {"speed_mps": episode.speed_mps, "scan_time_s": episode.scan_time_s}
-    if task == "time":
-        effort["time_budget_s"] = episode.time_budget_s
+    settings = task_config(policy, noise, task, budget_scans, max_steps, time_budget_s,
+                           speed_mps, scan_time_s, lidar)  # fmt: skip
 
     def progress(message: str) -> None:
         print(message, file=sys.stderr, flush=True)
 
     dataset = record_dataset(
-        policy, world, out, episodes=episodes, noise=noise, seed=seed, max_steps=steps,
-        dataset_id=dataset_id, progress=progress, task=task, effort=effort, lidar=lidar,
+        policy, world, out, settings, episodes=episodes, seed=seed, dataset_id=dataset_id,
+        progress=progress,
     )  # fmt: skip
     typer.echo(f"{dataset.total_episodes} episodes, {dataset.total_steps} steps → {out}")

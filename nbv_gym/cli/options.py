@@ -82,21 +82,27 @@ def task_of(
     return task, budget
 
 
-def task_episode_config(
-    task: str,
+def task_config(
+    policy: str,
+    noise: int,
+    task: str | None,
     budget_scans: int | None,
     max_steps: int | None,
     time_budget_s: float | None,
     speed_mps: float | None,
     scan_time_s: float | None,
+    lidar: str | None,
 ) -> Any:
-    """The :class:`~nbv_gym.simulator.EpisodeConfig` of the options (after :func:`task_of`)."""
-    from nbv_gym.core.config import from_dict
-    from nbv_gym.core.protocol import EpisodeConfig, task_episode
+    """The :class:`~nbv_gym.env.task.TaskConfig` of the task options of ``run`` and ``record``
+    (:func:`task_of`; a trained agent's own settings fill the options left out:
+    :func:`agent_options`)."""
+    from nbv_gym.env.task import TaskConfig
 
-    given = {"max_steps": max_steps, "speed_mps": speed_mps, "scan_time_s": scan_time_s}
-    episode = from_dict(EpisodeConfig, {k: v for k, v in given.items() if v is not None})
-    return task_episode(task, episode, budget_scans, time_budget_s)
+    task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
+    own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,
+                        speed_mps=speed_mps, scan_time_s=scan_time_s)  # fmt: skip
+    given = {"budget_scans": budget_scans, "max_steps": max_steps, **own}
+    return TaskConfig(name=task, noise=noise, **{k: v for k, v in given.items() if v is not None})
 
 
 LIDAR_HELP = (

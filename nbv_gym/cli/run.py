@@ -16,9 +16,7 @@ from nbv_gym.cli.options import (
     SpeedOption,
     TaskOption,
     TimeBudgetOption,
-    agent_options,
-    task_episode_config,
-    task_of,
+    task_config,
 )
 from nbv_gym.cli.params import COUNT, NOISE_HELP, NOISE_LEVEL, POSITIVE_COUNT
 from nbv_gym.core.jsonfiles import dumps_json
@@ -90,11 +88,9 @@ def run(
     in its own colour) and exploration.gif.
     """
     from nbv_gym.core.outputs import claim_folder, staged_folder
-    from nbv_gym.env.explore import EnvConfig
     from nbv_gym.episode import make_env, run_episode, write_run_folder
     from nbv_gym.policies import load_policy
-    from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config
-    from nbv_gym.simulator import SimulatorConfig
+    from nbv_gym.sensor.presets import lidar_config
     from nbv_gym.worlds import load_spec
 
     if lidar is not None:
@@ -108,19 +104,13 @@ def run(
                  "scan_time_s": scan_time_s, "lidar": lidar}  # fmt: skip
         run_team(robots, given, out, animation, partial(_check_run_folder, out, force), as_json)
         return
-    task, budget_scans = task_of(policy, task, budget_scans, max_steps, time_budget_s)
-    own = agent_options(policy, task, lidar=lidar, time_budget_s=time_budget_s,
-                        speed_mps=speed_mps, scan_time_s=scan_time_s)  # fmt: skip
-    lidar = own["lidar"] or DEFAULT_LIDAR
-    sensor = lidar_config(lidar)
-    episode = task_episode_config(
-        task, budget_scans, max_steps, own["time_budget_s"], own["speed_mps"], own["scan_time_s"]
-    )
+    settings = task_config(policy, noise, task, budget_scans, max_steps, time_budget_s,
+                           speed_mps, scan_time_s, lidar)  # fmt: skip
+    task, lidar = settings.name, settings.lidar
     run_files = _check_run_folder(out, force)  # a bad --out fails before the world is built
     agent = load_policy(policy)
-    simulator = SimulatorConfig(world=world, noise=noise, lidar=sensor, episode=episode)
     load_spec(world)  # a bad world name or spec fails before the world is built
-    env = make_env(EnvConfig(simulator), agent, render=animation)
+    env = make_env(settings.env_config(world), agent, render=animation)
     claim_folder(out, "run")
     frames = []
 

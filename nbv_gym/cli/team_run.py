@@ -8,7 +8,7 @@ from typing import Any
 
 import typer
 
-from nbv_gym.cli.options import agent_options, task_episode_config
+from nbv_gym.cli.options import task_config
 from nbv_gym.core.jsonfiles import dumps_json
 
 
@@ -27,30 +27,22 @@ def run_team(
     check that ``out`` can take the files ``names`` (the names to replace)."""
     from nbv_gym.core.outputs import claim_folder, staged_folder
     from nbv_gym.core.trajectory import TRAJECTORY_NAME
-    from nbv_gym.env.explore import EnvConfig, ExploreEnv
+    from nbv_gym.env.explore import ExploreEnv
     from nbv_gym.episode import RUN_FILES
-    from nbv_gym.sensor.presets import DEFAULT_LIDAR, lidar_config
-    from nbv_gym.simulator import SimulatorConfig
     from nbv_gym.team import TeamEnv, load_team_policy, run_team_episode
     from nbv_gym.team.runfolder import TEAM_RUN_FILES, write_team_run_folder
     from nbv_gym.worlds import load_spec
 
     policy, world, noise, seed = given["policy"], given["world"], given["noise"], given["seed"]
     _check_task(robots, given)
-    own = agent_options(policy, "time", lidar=given["lidar"],
-                        time_budget_s=given["time_budget_s"], speed_mps=given["speed_mps"],
-                        scan_time_s=given["scan_time_s"])  # fmt: skip
-    lidar = own["lidar"] or DEFAULT_LIDAR
-    episode = task_episode_config(
-        "time", None, None, own["time_budget_s"], own["speed_mps"], own["scan_time_s"]
-    )
+    settings = task_config(policy, noise, "time", None, None, given["time_budget_s"],
+                           given["speed_mps"], given["scan_time_s"], given["lidar"])  # fmt: skip
+    lidar = settings.lidar
     single = (*RUN_FILES, TRAJECTORY_NAME)  # a single run's files in --out: an earlier run too
     names = check_folder(tuple(dict.fromkeys((*TEAM_RUN_FILES, *single))))
     team = load_team_policy(policy, robots)
     load_spec(world)  # a bad world name or spec fails before the world is built
-    simulator = SimulatorConfig(world=world, noise=noise, lidar=lidar_config(lidar),
-                                episode=episode)  # fmt: skip
-    env = TeamEnv(EnvConfig(simulator), n_robots=robots)
+    env = TeamEnv(settings.env_config(world), n_robots=robots)
     claim_folder(out, "run")
     frames: list = []
     reported = [0]

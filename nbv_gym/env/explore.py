@@ -122,7 +122,7 @@ class ExploreEnv(gymnasium.Env):
     Args:
         render_mode: None or "rgb_array".
         config: an :class:`EnvConfig` (or a dict of its fields).
-        task: ``"explore"`` (the paper's protocol), ``"budget"`` (``max_steps`` scans, no
+        task: ``"explore"`` (the paper's protocol), ``"budget"`` (``budget_scans`` scans, no
             termination) or ``"time"`` (a time budget: travel and scans charged;
             :mod:`nbv_gym.core.protocol`); ``nbv_gym/ExploreBudget-v0`` and
             ``nbv_gym/ExploreTime-v0`` set it. In the time task ``info`` also holds the robot's
@@ -134,7 +134,10 @@ class ExploreEnv(gymnasium.Env):
             ``simulator.noise``, ``simulator.episode.max_steps``, ``observation_layers``,
             ``invalid_action``, ``world_pool_size`` and ``episodes_per_world``. The registered
             ids set no ``max_episode_steps``: ``max_steps`` (and the time budget) is the one
-            truncation.
+            truncation. ``max_steps`` truncates the explore and time tasks; the budget task's
+            budget is ``budget_scans`` (default :data:`~nbv_gym.core.protocol.BUDGET_SCANS`),
+            and a ``max_steps`` given to it is refused naming ``budget_scans``.
+        budget_scans: the budget task's budget in scans after the first (other tasks: refused).
         lidar: a lidar preset name (:mod:`nbv_gym.sensor.presets`, e.g. ``"vlp-16"``) whose
             beam pattern (channels, elevations, azimuth samples) replaces the config's.
     """
@@ -150,6 +153,7 @@ class ExploreEnv(gymnasium.Env):
         world: str | None = None,
         noise: int | None = None,
         max_steps: int | None = None,
+        budget_scans: int | None = None,
         observation_layers: tuple[str, ...] | list[str] | None = None,
         invalid_action: str | None = None,
         world_pool_size: int | None = None,
@@ -170,6 +174,7 @@ class ExploreEnv(gymnasium.Env):
         }
         effort = {
             "time_budget_s": time_budget_s,
+            "budget_scans": budget_scans,
             "speed_mps": speed_mps,
             "scan_time_s": scan_time_s,
         }
@@ -335,6 +340,9 @@ def resolve_config(
     world = str(world) if isinstance(world, os.PathLike) else world
     one_name = isinstance(observation_layers, str)  # refused by EnvConfig with a hint, below
     sensor = None if lidar is None else beam_pattern(lidar)
+    effort = dict(effort)
+    budget_scans = effort.pop("budget_scans", None)
+    _check_task_keywords(task, max_steps, budget_scans, effort.get("time_budget_s"))
     keywords = {
         "simulator": {
             "world": world,
@@ -353,16 +361,32 @@ def resolve_config(
         resolved = from_dict(EnvConfig, merge(base, given))
     if one_name:
         resolved = replace(resolved, observation_layers=observation_layers)
-    if effort.get("time_budget_s") is not None and task != "time":
+    episode = resolved.simulator.episode
+    episode = task_episode(task, episode, budget_scans)
+    if max_steps is not None:
+        episode = replace(episode, max_steps=max_steps)
+    return replace(resolved, simulator=replace(resolved.simulator, episode=episode))
+
+
+def _check_task_keywords(
+    task: str, max_steps: int | None, budget_scans: int | None, time_budget_s: float | None
+) -> None:
+    """Refuse a budget keyword of another task than ``task``, naming the one to give."""
+    if max_steps is not None and task == "budget":
+        raise ConfigError(
+            f"max_steps: the budget task's budget is budget_scans (max_steps truncates the "
+            f"explore and time tasks); give budget_scans={max_steps!r}"
+        )
+    if budget_scans is not None and task != "budget":
+        raise ConfigError(
+            f"budget_scans is the budget task's budget; give task='budget' "
+            f"(nbv_gym/ExploreBudget-v0) or max_steps, got task={task!r}"
+        )
+    if time_budget_s is not None and task != "time":
         raise ConfigError(
             f"time_budget_s is the time task's budget; give task='time' (nbv_gym/ExploreTime-v0) "
             f"or no time budget, got task={task!r}"
         )
-    episode = resolved.simulator.episode
-    episode = task_episode(task, episode)
-    if max_steps is not None:
-        episode = replace(episode, max_steps=max_steps)
-    return replace(resolved, simulator=replace(resolved.simulator, episode=episode))
 
 
 def task_env(id_task: str, task: str | None = None, **kwargs: Any) -> ExploreEnv:

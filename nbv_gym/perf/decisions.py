@@ -96,7 +96,10 @@ def _prepared(name: str):
 
     policy, warmup = load_policy(name), load_policy("ig-unknown")
     config = ExploreEnv(
-        world=PERF_WORLD, task="budget", max_steps=12, observation_layers=warmup.observation_layers
+        world=PERF_WORLD,
+        task="budget",
+        budget_scans=12,
+        observation_layers=warmup.observation_layers,
     ).config
     env = make_env(config, policy)
     observation, info = env.reset(seed=0)

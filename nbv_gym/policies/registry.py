@@ -20,8 +20,7 @@ import numpy as np
 
 from nbv_gym.core.config import read_toml
 from nbv_gym.core.errors import NbvGymError, UnknownNameError
-from nbv_gym.core.protocol import BUDGET_SCANS, SCAN_TIME_S, SPEED_MPS, TIME_BUDGET_S, check_task
-from nbv_gym.sensor.presets import DEFAULT_LIDAR
+from nbv_gym.core.protocol import check_task
 
 #: Registered policy names → ``module:Class`` of their implementation.
 POLICIES: dict[str, str] = {
@@ -145,26 +144,21 @@ def model_path(name: str) -> Path:
 
 
 def trained_task(name: str) -> tuple[str, int] | None:
-    """The task and budget (scans, the training config's ``max_steps``) an agent was trained
+    """The task and budget (scans, the training config's ``budget_scans``) an agent was trained
     under (:func:`trained_settings`); None for other policies or when no config is found."""
     found = trained_settings(name)
-    return None if found is None else (found[1]["task"], found[1]["max_steps"])
+    return None if found is None else (found[1]["task"], found[1]["budget_scans"])
 
 
-#: What an agent's training config fixes about the episodes it was trained on, with the value a
-#: config that leaves the key out meant (the training config's defaults).
-TRAINED_DEFAULTS: dict[str, Any] = {
-    "max_steps": BUDGET_SCANS,
-    "lidar": DEFAULT_LIDAR,
-    "time_budget_s": TIME_BUDGET_S,
-    "speed_mps": SPEED_MPS,
-    "scan_time_s": SCAN_TIME_S,
-}
+#: What an agent's training config fixes about the episodes it was trained on (besides its
+#: task): keys of :class:`~nbv_gym.env.task.TaskConfig`, whose defaults a config that leaves
+#: one out meant.
+TRAINED_KEYS = ("budget_scans", "lidar", "time_budget_s", "speed_mps", "scan_time_s")
 
 
 def trained_settings(name: str) -> tuple[Path, dict[str, Any]] | None:
     """The training config of the agent ``name`` and what it fixes about the episodes the agent
-    learned from: its task and :data:`TRAINED_DEFAULTS`' keys. The config is
+    learned from: its task and :data:`TRAINED_KEYS`. The config is
     ``models/NAME.toml`` beside a shipped model, else the ``config.toml`` of the run folder
     ``nbv-gym train`` wrote for an ``sb3:PATH`` model (beside the model, or above its
     ``checkpoints/`` folder; in a packaged folder). None for other policies, or when no config
@@ -172,13 +166,18 @@ def trained_settings(name: str) -> tuple[Path, dict[str, Any]] | None:
     config = training_config_path(name)
     if config is None or not config.is_file():
         return None
+    from nbv_gym.core.errors import ConfigError
+    from nbv_gym.env.task import TaskConfig
+
     data = read_toml(config, "Training config")
     if "task" not in data:
         return None
-    return config, {
-        "task": data["task"],
-        **{k: data.get(k, v) for k, v in TRAINED_DEFAULTS.items()},
-    }
+    keys = ("task", "noise", *TRAINED_KEYS, "max_steps", "observation_layers")
+    try:
+        task = TaskConfig.from_flat({k: data[k] for k in keys if k in data})
+    except ConfigError as error:
+        raise ConfigError(f"{config}: {error}") from None
+    return config, {"task": task.name, **{k: getattr(task, k) for k in TRAINED_KEYS}}
 
 
 def training_config_path(name: str) -> Path | None:

@@ -1,8 +1,10 @@
 """The training config of ``nbv-gym train`` (a TOML file such as the shipped ``ppo``,
 ``nbv_gym/configs/train/ppo.toml``).
 
-Top-level keys are :class:`TrainConfig`'s fields; the learning hyper-parameters live in the
-``[learning]`` table (:class:`LearningConfig`). Unknown keys are rejected with their dotted path.
+Top-level keys are :class:`TrainConfig`'s fields and, flat beside them, the task's
+(:class:`~nbv_gym.env.task.TaskConfig`: ``task``, ``noise``, ``lidar``, ``budget_scans``, …);
+the learning hyper-parameters live in the ``[learning]`` table (:class:`LearningConfig`).
+Unknown keys are rejected with their dotted path.
 """
 
 from __future__ import annotations
@@ -12,20 +14,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from nbv_gym.core.config import check, from_dict, read_toml
+from nbv_gym.core.config import check, from_dict, read_toml, to_dict
 from nbv_gym.core.errors import ConfigError, MissingExtraError, UnknownNameError
-from nbv_gym.core.protocol import (
-    BUDGET_SCANS,
-    SCAN_TIME_S,
-    SPEED_MPS,
-    TASKS,
-    TIME_BUDGET_S,
-    EffortModel,
-    check_effort,
-    check_noise_level,
-)
-from nbv_gym.env.layers import OPTIONAL_LAYERS
-from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.worlds.distribution import (
     MAX_POOL_SIZE,
     PREFIX,
@@ -198,6 +189,11 @@ class ImitationConfig:
         return int((episode + 1) * share) > int(episode * share)
 
 
+#: The task of a training config that names none: the budget task.
+TRAIN_TASK = TaskConfig(name="budget")
+#: A training file's flat keys that are its task's (:class:`~nbv_gym.env.task.TaskConfig`).
+TASK_KEYS = ("task", *(name for name in TaskConfig.__dataclass_fields__ if name != "name"))
+
 #: Features of the robot state in the network's global feature vector (``features_dim`` holds
 #: them and the map's: :class:`~nbv_gym.rl.extractor.MapExtractor`).
 STATE_FEATURES = 32
@@ -219,17 +215,14 @@ class TrainConfig:
       52 ms); evaluation cycles over ``eval_worlds`` with ``eval_episodes`` episodes (default:
       one per world). Defaults: the 256-world pool of ``random:wide``, evaluated on its
       held-out worlds ``random:wide/heldout-0`` … ``-7`` (:mod:`nbv_gym.worlds.pools`).
-    - ``task``: ``"budget"`` (``max_steps`` scans, no termination, travel free: the agent cannot
-      profit from delaying discovery), ``"time"`` (``time_budget_s`` seconds of robot time,
-      travel and scans charged) or ``"explore"`` (terminate at 70 % discovered);
-      :mod:`nbv_gym.core.protocol`.
-    - ``noise``, ``max_steps``: the environment's localisation noise level and episode length
-      (the budget of the budget task; the time task caps scans itself); ``lidar``: the lidar
-      preset (:mod:`nbv_gym.sensor.presets`).
-    - ``time_budget_s``, ``speed_mps``, ``scan_time_s``: the time task's budget and the effort
-      model (:class:`~nbv_gym.core.protocol.EffortModel`).
-    - ``observation_layers``: optional layers (e.g. ``gain_nobs``) the agent observes besides the
-      base layers; they are stored in the model and checked when it is loaded as a policy.
+    - ``task``: the episodes' settings (:class:`~nbv_gym.env.task.TaskConfig`, flat keys in
+      the file): the task — ``"budget"`` (the default: ``budget_scans`` scans, no termination,
+      travel free: the agent cannot profit from delaying discovery), ``"time"``
+      (``time_budget_s`` seconds of robot time, travel and scans charged) or ``"explore"``
+      (terminate at 70 % discovered, truncated at ``max_steps``) —, ``noise``, ``lidar``, the
+      effort model (``speed_mps``, ``scan_time_s``) and ``observation_layers``: optional layers
+      (e.g. ``gain_nobs``) the agent observes besides the base layers; they are stored in the
+      model and checked when it is loaded as a policy.
     - ``reward_scale``: the learner sees ``reward_scale · ΔQ`` (ΔQ is ~1e-3 per step, too small
       for the default value-function scale); reported returns are scaled too.
     - ``network``: ``"goal-map"`` scores every goal with a fully convolutional head (the action
@@ -266,14 +259,7 @@ class TrainConfig:
     eval_worlds: tuple[str, ...] = EVAL_WORLDS
     world_pool_size: int = WIDE_POOL_SIZE
     episodes_per_world: int = 4
-    task: str = "budget"
-    noise: int = 1
-    lidar: str = DEFAULT_LIDAR
-    max_steps: int = BUDGET_SCANS
-    time_budget_s: float = TIME_BUDGET_S
-    speed_mps: float = SPEED_MPS
-    scan_time_s: float = SCAN_TIME_S
-    observation_layers: tuple[str, ...] = ()
+    task: TaskConfig = TRAIN_TASK
     reward_scale: float = 100.0
     network: Literal["goal-map", "dense"] = "goal-map"
     features_dim: int = 128
@@ -323,25 +309,13 @@ class TrainConfig:
             f"must be from 1 to {MAX_POOL_SIZE}",
         )
         check(self.episodes_per_world >= 1, "episodes_per_world", "must be ≥ 1")
-        check(self.task in TASKS, "task", f"expected one of {', '.join(TASKS)}, got {self.task!r}")
-        check_noise_level(self.noise)
-        if self.lidar not in LIDAR_PRESETS:
-            raise ConfigError(f"lidar: {UnknownNameError('lidar', self.lidar, LIDAR_PRESETS)}")
-        check(self.max_steps >= 1, "max_steps", "must be ≥ 1")
-        check_effort("time_budget_s", self.time_budget_s)
-        EffortModel(self.speed_mps, self.scan_time_s)  # checks both
+        task = self.task
         check(
-            self.task != "time" or self.time_budget_s > self.scan_time_s,
+            task.name != "time" or task.time_budget_s > task.scan_time_s,
             "time_budget_s",
-            f"{self.time_budget_s:g} s leaves no goal: each costs a scan (scan_time_s = "
-            f"{self.scan_time_s:g} s) and a drive, so every episode would end at its first scan "
+            f"{task.time_budget_s:g} s leaves no goal: each costs a scan (scan_time_s = "
+            f"{task.scan_time_s:g} s) and a drive, so every episode would end at its first scan "
             "with nothing to learn; give a larger time budget",
-        )
-        unknown = sorted(set(self.observation_layers) - set(OPTIONAL_LAYERS))
-        check(
-            not unknown,
-            "observation_layers",
-            f"unknown layer(s) {unknown}; optional layers: {list(OPTIONAL_LAYERS)}",
         )
         check(0 < self.reward_scale < math.inf, "reward_scale", "must be a finite number > 0")
         check(
@@ -372,14 +346,15 @@ class TrainConfig:
 
     def env_kwargs(self) -> dict[str, Any]:
         """The :class:`~nbv_gym.env.ExploreEnv` keywords this config trains, evaluates and
-        packages under: task, noise, lidar, observation layers, the effort model, and the time
-        task's budget (whose scan cap is the environment's) or the other tasks' ``max_steps``."""
-        kwargs = {"task": self.task, "noise": self.noise, "lidar": self.lidar,
-                  "observation_layers": tuple(self.observation_layers),
-                  "speed_mps": self.speed_mps, "scan_time_s": self.scan_time_s}  # fmt: skip
-        if self.task == "time":
-            return {**kwargs, "time_budget_s": self.time_budget_s}
-        return {**kwargs, "max_steps": self.max_steps}
+        packages under (:meth:`TaskConfig.env_kwargs <nbv_gym.env.task.TaskConfig.env_kwargs>`)."""
+        return self.task.env_kwargs()
+
+    def file_dict(self) -> dict[str, Any]:
+        """The config as a file holds it (:func:`load_train_config` reads it back): the task's
+        keys flat beside the others."""
+        data = to_dict(self)
+        del data["task"]
+        return {**data, **self.task.flat()}
 
     @property
     def n_eval_episodes(self) -> int:
@@ -387,12 +362,17 @@ class TrainConfig:
         return self.eval_episodes or len(self.eval_worlds)
 
 
+def _setting(config: TrainConfig, key: str) -> Any:
+    """The value of the file key ``key`` of ``config`` (a task setting's too)."""
+    return config.file_dict()[key]
+
+
 def _check_team(config: TrainConfig) -> None:
     """ConfigError for what team training (``robots`` ≥ 2) does not run."""
-    team = {"algorithm": config.algorithm == "MaskablePPO", "task": config.task == "time",
+    team = {"algorithm": config.algorithm == "MaskablePPO", "task": config.task.name == "time",
             "scheduler": not config.scheduler, "imitation": config.imitation is None,
             "eval_every_steps": not config.eval_every_steps,
-            "observation_layers": not config.observation_layers,
+            "observation_layers": not config.task.observation_layers,
             "train_worlds": not any(map(is_distribution, config.train_worlds))}  # fmt: skip
     for key in (key for key, ok in team.items() if not ok):
         check(
@@ -400,7 +380,7 @@ def _check_team(config: TrainConfig) -> None:
             key,
             f"robots = {config.robots} trains on the team task: MaskablePPO (busy robots' masks), "
             "the time task, world names, in this process, no imitation, no optional layers, no "
-            f"evaluation during training; got {getattr(config, key)!r}",
+            f"evaluation during training; got {_setting(config, key)!r}",
         )
 
 
@@ -430,4 +410,13 @@ def load_train_config(path: str | Path, overrides: dict[str, Any] | None = None)
         for part in filter(None, table.split(".")):
             target = target.setdefault(part, {})
         target[name] = value
-    return from_dict(TrainConfig, data)
+    return train_config(data)
+
+
+def train_config(data: dict[str, Any]) -> TrainConfig:
+    """The :class:`TrainConfig` of a file's table (:meth:`TrainConfig.file_dict`'s shape: the
+    task's keys flat, the task ``budget`` when it names none)."""
+    rest = {key: value for key, value in data.items() if key not in TASK_KEYS}
+    flat = {"task": TRAIN_TASK.name, **{k: data[k] for k in TASK_KEYS if k in data}}
+    task = TaskConfig.from_flat(flat)
+    return from_dict(TrainConfig, {**rest, "task": to_dict(task)})

@@ -20,14 +20,14 @@ import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.names import check_path_of_names
 from nbv_gym.core.outputs import writable_folder
-from nbv_gym.core.protocol import EXPLORE_MAX_STEPS, TASK_IDS
+from nbv_gym.core.protocol import TASK_IDS
+from nbv_gym.env.task import TaskConfig
 
 #: The info entries kept in a dataset (the rest is derived or not array-like).
 INFO_KEYS = ("action_mask", "discovered", "q", "q_paper", "path_length_m")
@@ -41,22 +41,18 @@ def record_dataset(
     policy: str,
     world: str,
     out: str | Path,
+    task: TaskConfig | None = None,
     episodes: int = 1,
-    noise: int = 1,
     seed: int = 0,
-    max_steps: int = EXPLORE_MAX_STEPS,
     dataset_id: str | None = None,
     progress: Callable[[str], None] | None = None,
-    task: str = "explore",
-    effort: dict[str, Any] | None = None,
-    lidar: str = "os1-16",
 ):
     """Run ``episodes`` episodes of ``policy`` on ``world`` (reset seeds ``seed``, ``seed + 1``,
-    …) under ``task`` and write them as a Minari dataset under the folder ``out``; the
-    ``MinariDataset``. ``max_steps`` is the truncation of the explore task, the budget in
-    scans of the budget task, or the scan cap of the time task; ``effort``: the time task's
-    ``time_budget_s`` and the effort model's ``speed_mps`` and ``scan_time_s`` (keywords of
-    the environment); ``lidar`` a lidar preset (:mod:`nbv_gym.sensor.presets`)."""
+    …) under ``task`` (a :class:`~nbv_gym.env.task.TaskConfig`, default: the explore task's
+    defaults; the policy's own observation layers are added) and write them as a Minari dataset
+    under the folder ``out``; the ``MinariDataset``. The environment is made with the task's
+    keywords (:meth:`~nbv_gym.env.task.TaskConfig.env_kwargs`), which the dataset records."""
+    task = task or TaskConfig()
     if episodes < 1:
         raise RecordError(f"--episodes must be ≥ 1, got {episodes}")
     dataset_id = check_path_of_names(dataset_id or default_id(world, policy), "--dataset-id", 3)
@@ -73,12 +69,9 @@ def record_dataset(
     from nbv_gym.policies import load_policy, required_layers
 
     agent = load_policy(policy)
-    env = gymnasium.make(
-        TASK_IDS[task], world=world, noise=noise, max_steps=max_steps,
-        observation_layers=tuple(required_layers(agent)),
-        **(effort or {}),
-        lidar=lidar,
-    )  # fmt: skip
+    layers = tuple(dict.fromkeys((*task.observation_layers, *required_layers(agent))))
+    kwargs = {**task.env_kwargs(), "observation_layers": layers}
+    env = gymnasium.make(TASK_IDS[kwargs.pop("task")], world=world, **kwargs)
     buffers = []
     for k in range(episodes):
         buffers.append(_episode(env, agent, seed + k, k))
@@ -91,8 +84,8 @@ def record_dataset(
         return minari.create_dataset_from_buffers(
             dataset_id, buffers, env=env, data_format="arrow", algorithm_name=policy,
             author="nbv-gym", code_permalink=code_permalink(), requirements=requirements(),
-            description=f"{episodes} episodes of {policy} on {world} ({task} task, noise "
-            f"{noise}, lidar {lidar}), reset seeds {seed}…{seed + episodes - 1}; nbv-gym record",
+            description=f"{episodes} episodes of {policy} on {world} ({task.name} task, noise "
+            f"{task.noise}, lidar {task.lidar}), reset seeds {seed}…{seed + episodes - 1}; nbv-gym record",
         )  # fmt: skip
 
 

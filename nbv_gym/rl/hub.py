@@ -127,7 +127,7 @@ def package(
     out = writable_folder(out)
     config = load_train_config(source.config)
     policy = SB3Policy(source.model)
-    env_id = TASK_IDS[config.task]
+    env_id = TASK_IDS[config.task.name]
     model_name = zoo_model_name(config.algorithm, env_id)
     for stale in out.glob("*.zip"):  # one model per folder: sb3:FOLDER loads it
         stale.unlink()
@@ -159,7 +159,7 @@ def zoo_env_kwargs(config: TrainConfig) -> dict[str, Any]:
     return {
         "world": (config.eval_worlds or config.train_worlds)[0],
         **kwargs,
-        "observation_layers": list(config.observation_layers),
+        "observation_layers": list(config.task.observation_layers),
         "invalid_action": "snap",
     }
 
@@ -281,9 +281,9 @@ def summarise(rows: list[dict], config: TrainConfig, masked: bool, seed: int) ->
         "masked": masked,
         "n_eval_episodes": len(rows),
         "eval_datetime": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
-        "task": config.task,
-        "noise": config.noise,
-        "max_steps": config.max_steps,
+        "task": config.task.name,
+        "noise": config.task.noise,
+        "budget_scans": config.task.budget_scans if config.task.name == "budget" else None,
         "worlds": worlds,
         "interval": (
             "95 % bootstrap interval of the mean, episodes resampled within each world"
@@ -387,12 +387,14 @@ def _evaluation_section(results: dict[str, Any]) -> list[str]:
         else "invalid goals snapped to the nearest valid one"
     )
     per_world = results["n_eval_episodes"] // max(len(results["worlds"]), 1)
+    scans = results.get("budget_scans")
+    budget = f"{scans} scans per episode" if scans else "the task's own budget per episode"
     return [
         "## Evaluation",
         "",
         f"Deterministic, {acting}, on the held-out worlds {', '.join(results['worlds'])}: task "
-        f"`{results['task']}`, noise level {results['noise']}, {results['max_steps']} scans per "
-        f"episode, {per_world} episode(s) per world ({results['n_eval_episodes']} in all), "
+        f"`{results['task']}`, noise level {results['noise']}, {budget}, "
+        f"{per_world} episode(s) per world ({results['n_eval_episodes']} in all), "
         f"{results['eval_datetime']}. Means with their {results['interval']}.",
         "",
         "| world | return | Q after the episode | discovered | path (m) |",

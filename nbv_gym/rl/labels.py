@@ -101,7 +101,7 @@ def check_teacher(config: TrainConfig) -> None:
             f"imitation.teacher: {name!r} gives no values of its candidates; a teacher is a "
             "privileged policy with values(observation, info), such as oracle-time"
         )
-    missing = [k for k in teacher.observation_layers if k not in config.observation_layers]
+    missing = [k for k in teacher.observation_layers if k not in config.task.observation_layers]
     if missing:
         raise ConfigError(
             f"observation_layers: the teacher {name} reads {missing}; add them (the labels "

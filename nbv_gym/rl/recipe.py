@@ -24,7 +24,6 @@ import re
 from dataclasses import replace
 from pathlib import Path
 
-from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.outputs import atomic, write_text
 from nbv_gym.core.progress import say
@@ -152,9 +151,9 @@ def _claim(out: Path, config: TrainConfig) -> None:
                 f"{out} holds a recipe run's {', '.join(stages)} but no {RECIPE}: the config they "
                 f"came from is unknown; put its {RECIPE} back, or give another --out."
             )
-        write_text(path, dumps_toml(to_dict(config)))
+        write_text(path, dumps_toml(config.file_dict()))
         return
-    earlier, now = _flat(to_dict(load_train_config(path))), _flat(to_dict(config))
+    earlier, now = _flat(load_train_config(path).file_dict()), _flat(config.file_dict())
     differ = sorted(k for k in earlier.keys() | now.keys()
                     if earlier.get(k) != now.get(k) and k not in WHERE_KEYS)  # fmt: skip
     if differ:

@@ -255,7 +255,7 @@ def write_run_info(config: TrainConfig, out: Path) -> None:
     """Write ``config.toml`` and ``system_info.txt`` (platform and library versions)."""
     from nbv_gym.core.provenance import versions
 
-    (out / "config.toml").write_text(dumps_toml(to_dict(config)), encoding="utf-8")
+    (out / "config.toml").write_text(dumps_toml(config.file_dict()), encoding="utf-8")
     found = versions()
     for package in ("torch", "stable-baselines3", "sb3-contrib", "tensorboard"):
         found.update(_version(package))
@@ -363,8 +363,8 @@ def _load_or_create(config: TrainConfig, envs, resume: str | Path | None, verbos
 #: the network and what the environment gives and rewards (another task, budget, lidar or clock
 #: starts a new training from the model's weights: ``init_model``).
 RESUME_KEYS = ("algorithm", "network", "features_dim", "observation_layers", "reward_scale",
-               "task", "noise", "lidar", "max_steps", "time_budget_s", "speed_mps",
-               "scan_time_s", "robots")  # fmt: skip
+               "task", "noise", "lidar", "budget_scans", "max_steps", "time_budget_s",
+               "speed_mps", "scan_time_s", "robots")  # fmt: skip
 
 
 def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
@@ -389,9 +389,9 @@ def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
     path = training_config_path(f"{SB3_PREFIX}{resume}")
     if path is None or not path.is_file():
         return
-    then, now = to_dict(load_train_config(path)), to_dict(config)
+    then, now = load_train_config(path).file_dict(), config.file_dict()
     for key in RESUME_KEYS:
-        if _relevant(key, config.task) and then[key] != now[key]:
+        if _relevant(key, config.task.name) and then[key] != now[key]:
             raise ConfigError(
                 f"--resume {resume}: the training that saved it ({path}) has {key} = "
                 f"{then[key]!r}, this config {now[key]!r}; a training resumes under its own "
@@ -401,8 +401,9 @@ def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
 
 
 def _relevant(key: str, task: str) -> bool:
-    """Whether ``key`` shapes the episodes of ``task`` (a budget is the task's own)."""
-    return key not in ("max_steps", "time_budget_s") or (key == "time_budget_s") == (task == "time")
+    """Whether ``key`` shapes the episodes of ``task`` (a budget or truncation is one task's)."""
+    own = {"max_steps": "explore", "budget_scans": "budget", "time_budget_s": "time"}
+    return own.get(key, task) == task
 
 
 def _start_from(model, config: TrainConfig) -> None:

@@ -6,9 +6,13 @@ noise level and the repeat with SHA-256 — the policy is left out on purpose, s
 of one (world, noise, repeat) start from the same seed (common random numbers: the first scan is
 the same and comparisons between policies are paired).
 
-The ``[env]`` table overrides :class:`~nbv_gym.env.explore.EnvConfig` fields for every run (for
-example ``[env.simulator.lidar]`` or ``[env.nbv]``); ``simulator.world``, ``simulator.noise`` and
-``simulator.episode.max_steps`` are set by the sweep and may not appear there.
+The task's settings are top-level keys (:class:`~nbv_gym.env.task.TaskConfig`'s, flat: ``task``,
+``max_steps``, ``budget_scans``, ``time_budget_s``, ``speed_mps``, ``scan_time_s``, ``lidar``);
+``noise`` is the sweep's list of levels. The ``[env]`` table overrides
+:class:`~nbv_gym.env.explore.EnvConfig` fields for every run (for example
+``[env.simulator.lidar]``'s range or ``[env.nbv]``); the world, the noise and the task's settings
+are the sweep's and may not appear there (an old ``[env.simulator.episode]`` key gets one line
+naming its top-level key).
 """
 
 from __future__ import annotations
@@ -24,16 +28,8 @@ from typing import Any
 from nbv_gym.core.config import check, from_dict, merge, read_toml, to_dict
 from nbv_gym.core.errors import ConfigError, UnknownNameError
 from nbv_gym.core.names import check_name
-from nbv_gym.core.protocol import (
-    BUDGET_SCANS,
-    EXPLORE_MAX_STEPS,
-    NOISE_LEVELS,
-    TIME_BUDGET_S,
-    check_effort,
-    check_noise_level,
-    check_task,
-    task_episode,
-)
+from nbv_gym.core.protocol import NOISE_LEVELS, check_noise_level
+from nbv_gym.env.task import MAX_SCANS, TaskConfig
 from nbv_gym.policies import POLICIES
 
 #: The seven policies of the paper, in its order (the registry's order).
@@ -41,14 +37,20 @@ from nbv_gym.policies import POLICIES
 #: The most runs one sweep config may list (worlds × noise × policies × repeats; the paper's
 #: sweep has 756), and the most scans per episode: bounds on the work a config can ask for.
 MAX_RUNS = 100_000
-MAX_STEPS = 10_000
+MAX_STEPS = MAX_SCANS
 #: Keys of ``[env]`` the sweep sets itself, as dotted paths.
 _RESERVED_ENV_KEYS = (
     "simulator.world",
     "simulator.noise",
     "simulator.episode.max_steps",
     "simulator.episode.time_budget_s",
+    "simulator.episode.speed_mps",
+    "simulator.episode.scan_time_s",
 )
+#: A sweep file's flat keys that are its task's (:class:`~nbv_gym.env.task.TaskConfig`; the
+#: sweep's ``noise`` is its grid of levels, the layers are its policies' own).
+TASK_FILE_KEYS = ("task", "max_steps", "budget_scans", "time_budget_s", "speed_mps",
+                  "scan_time_s", "lidar")  # fmt: skip
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -59,11 +61,10 @@ class SweepConfig:
     config file); ``policies`` (required): registered policy names, ``module:Class`` or a
     trained agent (anything :func:`nbv_gym.policies.load_policy` takes); ``noise``:
     localisation-noise levels (0, 1, 2); ``repeats``: runs per combination; ``seed``: base seed
-    of every run seed; ``max_steps``: the episode truncation of the explore task; ``task``:
-    ``"explore"`` (the paper's protocol), ``"budget"`` (``budget_scans`` scans, no
-    termination, travel free) or ``"time"`` (``time_budget_s`` seconds of robot time, travel
-    and scans charged; the effort model's speed and scan time are ``env.simulator.episode``'s
-    ``speed_mps`` and ``scan_time_s``; :mod:`nbv_gym.core.protocol`); ``retries``: how many times a failed run is retried
+    of every run seed; ``task``: the task's settings (:class:`~nbv_gym.env.task.TaskConfig`,
+    flat keys in the file: ``task`` — ``"explore"``, the default, ``"budget"`` or ``"time"`` —,
+    ``max_steps``, ``budget_scans``, ``time_budget_s``, ``speed_mps``, ``scan_time_s``,
+    ``lidar``; its ``noise`` is replaced by each of the sweep's); ``retries``: how many times a failed run is retried
     within one invocation; ``run_timeout_s``: wall-clock limit of one run
     (world building included), after which its worker is stopped and the run recorded as failed
     ("timed out after N s"); ``env``: overrides of :class:`~nbv_gym.env.explore.EnvConfig` for
@@ -76,11 +77,8 @@ class SweepConfig:
     policies: tuple[str, ...]
     repeats: int = 3
     seed: int = 0
-    max_steps: int = EXPLORE_MAX_STEPS
     retries: int = 2
-    task: str = "explore"
-    budget_scans: int = BUDGET_SCANS
-    time_budget_s: float = TIME_BUDGET_S
+    task: TaskConfig = field(default_factory=TaskConfig)
     run_timeout_s: float = 1800.0
     env: dict[str, Any] = field(default_factory=dict)
 
@@ -109,12 +107,7 @@ class SweepConfig:
             f"than {MAX_RUNS:,}; split it into several sweeps",
         )
         check(self.seed >= 0, "seed", f"must be ≥ 0, got {self.seed}")
-        for key in ("max_steps", "budget_scans"):
-            value = getattr(self, key)
-            check(1 <= value <= MAX_STEPS, key, f"must be from 1 to {MAX_STEPS}, got {value}")
         check(self.retries >= 0, "retries", f"must be ≥ 0, got {self.retries}")
-        check_effort("time_budget_s", self.time_budget_s)
-        check_task(self.task)
         check(
             0 < self.run_timeout_s < math.inf,
             "run_timeout_s",
@@ -125,6 +118,7 @@ class SweepConfig:
     def env_config(self, world: str, noise: int):
         """The :class:`~nbv_gym.env.explore.EnvConfig` of one run (``world`` a name or spec path)."""
         from nbv_gym.env.explore import EnvConfig
+        from nbv_gym.sensor.presets import DEFAULT_LIDAR, beam_pattern
 
         for dotted in _RESERVED_ENV_KEYS:
             if _has_path(self.env, dotted):
@@ -133,12 +127,12 @@ class SweepConfig:
                     f"env.{dotted}: set by the sweep; use the top-level key "
                     f"{'worlds' if key == 'world' else key!r} instead"
                 )
-        episode_keys = {"max_steps": self.max_steps}
-        run = {"simulator": {"world": world, "noise": noise, "episode": episode_keys}}
+        lidar = self.task.lidar
+        _check_one_pattern(self.env, lidar, f"lidar {lidar}")
+        pattern = {} if lidar == DEFAULT_LIDAR else {"lidar": beam_pattern(lidar)}
+        run = {"simulator": {"world": world, "noise": noise, **pattern}}
         config = from_dict(EnvConfig, merge(self.env, run), "env")
-        episode = task_episode(
-            self.task, config.simulator.episode, self.budget_scans, self.time_budget_s
-        )
+        episode = self.task.episode(config.simulator.episode)
         return replace(config, simulator=replace(config.simulator, episode=episode))
 
     def runs(self) -> list[RunSpec]:
@@ -171,10 +165,16 @@ class SweepConfig:
 
     def results_fingerprint(self) -> dict[str, Any]:
         """The parts of the config that change a run's result (for resuming into a folder)."""
-        data = to_dict(self)
+        data = self.file_dict()
         for key in ("name", "worlds", "noise", "policies", "repeats", "retries", "run_timeout_s"):
             data.pop(key)
         return data
+
+    def file_dict(self) -> dict[str, Any]:
+        """The config as its file holds it (:func:`sweep_config` reads it back): the task's
+        keys flat beside the others."""
+        data, task = to_dict(self), self.task.flat()
+        return {**data, **{key: task[key] for key in TASK_FILE_KEYS}}
 
 
 @dataclass(frozen=True)
@@ -215,12 +215,21 @@ def load_sweep_config(path: str | Path) -> SweepConfig:
 TASK_KEYS = {"max_steps": "explore", "budget_scans": "budget", "time_budget_s": "time"}
 
 
+def sweep_config(data: Mapping[str, Any]) -> SweepConfig:
+    """The :class:`SweepConfig` of a file's table (:meth:`SweepConfig.file_dict`'s shape: the
+    task's keys flat)."""
+    rest = {key: value for key, value in data.items() if key not in TASK_FILE_KEYS}
+    task = TaskConfig.from_flat({k: data[k] for k in TASK_FILE_KEYS if k in data})
+    return from_dict(SweepConfig, {**rest, "task": to_dict(task)})
+
+
 def read_sweep_config(path: str | Path) -> tuple[SweepConfig, dict[str, Any]]:
     """:func:`load_sweep_config`, and the defaults it filled in for keys the file left out."""
     path = Path(path)
     data = read_toml(path, "Sweep config (see nbv-gym configs list)")
     missing = [key for key in REQUIRED_KEYS if key not in data]
-    if missing and set(data) <= {f.name for f in fields(SweepConfig)}:  # unknown keys first
+    known = {f.name for f in fields(SweepConfig)} | set(TASK_FILE_KEYS)
+    if missing and set(data) <= known:  # unknown keys first
         raise ConfigError(
             f"{path}: missing required key(s) {', '.join(missing)} (e.g. worlds = "
             '["pp1-trees"], policies = ["closest-frontier"]; see nbv-gym configs show quick).'
@@ -229,13 +238,16 @@ def read_sweep_config(path: str | Path) -> tuple[SweepConfig, dict[str, Any]]:
     if isinstance(data.get("worlds"), list):
         data["worlds"] = [_resolve_world(w, path.parent) for w in data["worlds"]]
     try:
-        config = from_dict(SweepConfig, data)
+        config = sweep_config(data)
     except ConfigError as error:
         raise ConfigError(f"{path}: {error}") from None
+    task = config.task.name
     filled = {
         key: value
-        for key, value in to_dict(config).items()
-        if key not in data and key != "env" and TASK_KEYS.get(key, config.task) == config.task
+        for key, value in config.file_dict().items()
+        if key not in data
+        and key not in ("env", "speed_mps", "scan_time_s", "lidar")
+        and TASK_KEYS.get(key, task) == task
     }
     return config, filled
 
@@ -246,24 +258,29 @@ def with_overrides(config: SweepConfig, **values: Any) -> SweepConfig:
 
 
 def with_lidar(config: SweepConfig, lidar: str | None) -> SweepConfig:
-    """``config`` with the beam pattern of the lidar preset ``lidar`` in ``[env.simulator.lidar]``
-    (unchanged for None, or for the default preset on a config that sets no pattern key); a
-    config that sets the beam pattern itself is refused rather than silently overridden."""
-    from nbv_gym.sensor.presets import DEFAULT_LIDAR, PATTERN_KEYS, beam_pattern
-
+    """``config`` with the lidar preset ``lidar`` (``--lidar``; unchanged for None); a config
+    that sets the beam pattern itself (``[env.simulator.lidar]``) is refused rather than
+    silently overridden."""
     if lidar is None:
         return config
-    pattern = beam_pattern(lidar)  # an unknown preset fails here, naming the near miss
-    table = config.env.get("simulator", {}).get("lidar", {})
+    changed = replace(config, task=replace(config.task, lidar=lidar))  # checks the name
+    _check_one_pattern(config.env, lidar, f"--lidar {lidar}", always=True)
+    return changed
+
+
+def _check_one_pattern(env: Mapping[str, Any], lidar: str, given: str, always=False) -> None:
+    """:class:`ConfigError` when ``[env.simulator.lidar]`` sets a beam-pattern key and a
+    lidar preset other than the default (or, ``always``, any preset) is ``given``."""
+    from nbv_gym.sensor.presets import DEFAULT_LIDAR, PATTERN_KEYS
+
+    table = env.get("simulator", {}).get("lidar", {})
     clash = sorted(set(table) & set(PATTERN_KEYS)) if isinstance(table, Mapping) else []
-    if clash:
+    if clash and (always or lidar != DEFAULT_LIDAR):
+        option = given.split()[0]
         raise ConfigError(
-            f"--lidar {lidar}: the config sets env.simulator.lidar.{clash[0]} itself; drop "
-            "--lidar or those keys (the beam pattern has one source)"
+            f"{given}: the config sets env.simulator.lidar.{clash[0]} itself; drop "
+            f"{option} or those keys (the beam pattern has one source)"
         )
-    if lidar == DEFAULT_LIDAR:
-        return config
-    return replace(config, env=merge(config.env, {"simulator": {"lidar": pattern}}))
 
 
 def world_name(world: str) -> str:

@@ -35,12 +35,11 @@ from typing import IO, Any
 
 import numpy as np
 
-from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.core.inputs import InputFileError, open_input, read_json
 from nbv_gym.core.jsonfiles import dumps_json
 from nbv_gym.core.outputs import atomic, claim_folder, write_text, write_together
-from nbv_gym.sweep.config import RunSpec, SweepConfig, dumps_toml, world_name
+from nbv_gym.sweep.config import RunSpec, SweepConfig, dumps_toml, sweep_config, world_name
 from nbv_gym.sweep.schema import (
     CUBOIDS,
     IDENTITY,
@@ -99,7 +98,7 @@ class ResultStore:
         self._check_same_results(config)
         digests = self._check_same_worlds(config)
         self._drop_temporaries()
-        write_text(self.root / "sweep.toml", dumps_toml(to_dict(config)))
+        write_text(self.root / "sweep.toml", dumps_toml(config.file_dict()))
         write_text(self.root / "worlds.json", dumps_json(digests, sort_keys=True))
         from nbv_gym.core.provenance import versions
 
@@ -175,10 +174,10 @@ class ResultStore:
         path = self.root / "sweep.toml"
         if not path.exists() or not any(self.runs_dir.glob("*.json")):
             return
-        from nbv_gym.core.config import from_dict, read_toml
+        from nbv_gym.core.config import read_toml
 
         try:
-            previous = from_dict(SweepConfig, read_toml(path, "sweep.toml"))
+            previous = sweep_config(read_toml(path, "sweep.toml"))
         except NbvGymError as error:
             raise SweepError(f"{path} is not a valid sweep config ({error}); remove it.") from None
         if previous.name != config.name:
@@ -340,10 +339,10 @@ class ResultStore:
     def _listed(self):
         """A test of whether a run record (its world, noise, policy, repeat) is one that the
         folder's sweep.toml lists (everything passes without a readable sweep.toml)."""
-        from nbv_gym.core.config import from_dict, read_toml
+        from nbv_gym.core.config import read_toml
 
         try:
-            config = from_dict(SweepConfig, read_toml(self.root / "sweep.toml", "sweep.toml"))
+            config = sweep_config(read_toml(self.root / "sweep.toml", "sweep.toml"))
         except NbvGymError:
             return lambda record: True
         worlds = {_name_or_stem(world) for world in config.worlds}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from nbv_gym.benchmark.suites import Part, Suite
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.worlds.spec import AssetConfig, PlacementConfig, WorldSpec
 
 #: A small generated world (10 crosses build in well under a second).
@@ -21,10 +22,28 @@ def tiny_suite() -> Suite:
     return Suite(
         "tiny",
         (
-            Part("time-test", "time", (TINY_WORLD,), noise=(0,), repeats=2, time_budget_s=40.0),
-            Part("benchmark", "budget", ("pp1-cuboids",), noise=(0,), repeats=2, budget_scans=2),
-            Part("test", "budget", (TINY_WORLD,), noise=(0,), repeats=2, budget_scans=2),
-            Part("explore", "explore", ("pp1-cuboids",), noise=(0,), repeats=2, max_steps=3),
+            Part(
+                "time-test",
+                TaskConfig(name="time", time_budget_s=40.0),
+                (TINY_WORLD,),
+                noise=(0,),
+                repeats=2,
+            ),
+            Part(
+                "benchmark",
+                TaskConfig(name="budget", budget_scans=2),
+                ("pp1-cuboids",),
+                noise=(0,),
+                repeats=2,
+            ),
+            Part(
+                "test",
+                TaskConfig(name="budget", budget_scans=2),
+                (TINY_WORLD,),
+                noise=(0,),
+                repeats=2,
+            ),
+            Part("explore", TaskConfig(max_steps=3), ("pp1-cuboids",), noise=(0,), repeats=2),
         ),
         seed=0,
     )

@@ -45,7 +45,7 @@ def card(
                     runs.append(
                         dict(
                             split=part.split,
-                            task=part.task,
+                            task=part.task.name,
                             world=world,
                             asset="crosses",
                             noise=noise,
@@ -59,7 +59,7 @@ def card(
                             discovered=0.75,
                             path_length_m=path_m,
                             elapsed_s=path_m + 20.0,
-                            q_time_auc=q if part.task == "time" else None,
+                            q_time_auc=q if part.task.name == "time" else None,
                             q_time=[round(q, 7)] * len(TIME_GRID_S),  # curves are rounded
                             q_path=[round(q, 7)] * len(PATH_GRID_M),
                             decision_time_s=0.001,

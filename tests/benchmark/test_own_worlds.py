@@ -9,6 +9,7 @@ from nbv_gym.benchmark.leaderboard import gather
 from nbv_gym.benchmark.suiterun import score_policy
 from nbv_gym.benchmark.suites import QUICK, Part, Suite
 from nbv_gym.core.errors import ConfigError, NbvGymError
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.worlds import load_spec
 from tests.helpers import write_tiny_world
 
@@ -40,7 +41,13 @@ def test_two_world_files_of_one_name_are_refused(tmp_path):
 
 def test_a_scorecard_on_your_world_file_passes_the_leaderboards_checks(tmp_path):
     spec = str(write_tiny_world(tmp_path))  # the file tiny.toml holds the world tiny-cuboids
-    part = Part("time-benchmark", "time", ("pp1-cuboids",), (0,), repeats=1, time_budget_s=20.0)
+    part = Part(
+        "time-benchmark",
+        TaskConfig(name="time", time_budget_s=20.0),
+        ("pp1-cuboids",),
+        (0,),
+        repeats=1,
+    )
     own = Suite("tiny", (part,), seed=0).with_worlds((spec,))
     card = score_policy("closest-frontier", own, tmp_path / "score", workers=1, progress=False)
     assert card["suite"]["parts"][0]["worlds"] == ["tiny-cuboids"]

@@ -20,6 +20,7 @@ from nbv_gym.benchmark.suites import (
 from nbv_gym.benchmark.testsplit import FIRST_SEED, SIZE, split_world, split_worlds
 from nbv_gym.core.config import to_dict
 from nbv_gym.core.errors import UnknownNameError
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.worlds import benchmark_names
 from nbv_gym.worlds.distribution import FIRST_SEED as POOL_SEED
 from nbv_gym.worlds.distribution import KINDS, POOL_SIZE, WorldDistribution
@@ -35,12 +36,14 @@ def test_standard_suite_runs_the_time_and_budget_tasks_on_both_splits_and_the_pa
     assert parts["explore"].world_names == BENCHMARK_WORLDS
     assert len(parts["test"].worlds) >= 12
     assert parts["time-shift"].world_names == tuple(w.name for w in shift_worlds())
-    assert [p.task for p in parts.values()] == ["time"] * 3 + ["budget", "budget", "explore"]
+    assert [p.task.name for p in parts.values()] == ["time"] * 3 + ["budget", "budget", "explore"]
     assert [p.metric for p in parts.values()] == ["q_time_auc"] * 3 + ["q", "q", "q_paper_70"]
-    assert parts["time-shift"].time_budget_s == parts["time-test"].time_budget_s
+    assert parts["time-shift"].task.time_budget_s == parts["time-test"].task.time_budget_s
     assert (parts["time-shift"].noise, parts["time-shift"].repeats) == ((0, 1, 2), 3)
     assert all(p.noise == (0, 1, 2) and p.repeats >= 2 for p in parts.values())
-    assert parts["benchmark"].budget_scans == 12 and parts["time-test"].time_budget_s == 600
+    assert (
+        parts["benchmark"].task.budget_scans == 12 and parts["time-test"].task.time_budget_s == 600
+    )
     assert HEADLINE_SPLIT == "time-test"
     episode = parts["time-test"].env_config().simulator.episode
     assert (episode.time_budget_s, episode.discovered_target) == (600, None)
@@ -148,4 +151,4 @@ def test_suites_by_name():
     ):
         get_suite("standrad")
     with pytest.raises(Exception, match="task: expected one of explore, budget"):
-        Part("x", "sprint", ("pp1-trees",))
+        Part("x", TaskConfig(name="sprint"), ("pp1-trees",))

@@ -28,7 +28,7 @@ def test_a_shipped_agent_runs_its_own_task_and_budget_unless_told_otherwise():
 def test_an_sb3_model_reads_the_config_of_its_training_run(tmp_path):
     (tmp_path / "best_model.zip").write_bytes(model_path("ppo-budget").read_bytes())
     assert trained_task(f"sb3:{tmp_path / 'best_model.zip'}") is None  # no config.toml beside
-    (tmp_path / "config.toml").write_text('task = "budget"\nmax_steps = 7\n')
+    (tmp_path / "config.toml").write_text('task = "budget"\nbudget_scans = 7\n')
     assert episode_task(f"sb3:{tmp_path / 'best_model.zip'}") == ("budget", 7)
 
 

@@ -29,7 +29,7 @@ def test_every_shipped_config_has_a_kind_and_loads_as_one():
     assert {c.kind for c in shipped.values()} == set(KINDS)
     for name in SWEEPS:
         assert load_sweep_config(config_file(name, "sweep")).name == name
-    assert load_train_config(config_file("ppo", "train")).task == "budget"
+    assert load_train_config(config_file("ppo", "train")).task.name == "budget"
 
 
 def test_a_shipped_sweep_sets_every_key_its_task_reads_so_it_prints_no_defaults(tmp_path):

@@ -29,20 +29,16 @@ ENTRIES = {
 
 
 def _train(values):
-    from nbv_gym.rl.config import TrainConfig
+    from nbv_gym.rl.config import train_config
 
-    return from_dict(TrainConfig, {"task": "time", **values})
+    return train_config({"task": "time", **values})
 
 
 def _sweep(key, value):
-    from nbv_gym.sweep.config import SweepConfig
+    from nbv_gym.sweep.config import sweep_config
 
-    if key == "time_budget_s":
-        return SweepConfig(worlds=("pp1-cuboids",), policies=("closest-frontier",), task="time",
-                           time_budget_s=value)  # fmt: skip
-    config = SweepConfig(worlds=("pp1-cuboids",), policies=("closest-frontier",), task="time",
-                         env={"simulator": {"episode": {key: value}}})  # fmt: skip
-    return config.env_config("pp1-cuboids", 0)
+    base = {"worlds": ["pp1-cuboids"], "policies": ["closest-frontier"], "task": "time"}
+    return sweep_config({**base, key: value})
 
 
 def _tuning(key, value):

@@ -20,7 +20,7 @@ THRESHOLDS = (0.7, 0.8)
 @pytest.fixture(scope="module")
 def explored():
     """The simulator after three scans on pp1-trees (noise 1), and the valid goals."""
-    env = ExploreEnv(world="pp1-trees", noise=1, task="budget", max_steps=4)
+    env = ExploreEnv(world="pp1-trees", noise=1, task="budget", budget_scans=4)
     _, info = env.reset(seed=3)
     for pick in (0, -1):
         *_, info = env.step(int(np.flatnonzero(info["action_mask"])[pick]))

@@ -10,7 +10,7 @@ from nbv_gym.mapping.scratch import ScanTrial
 
 
 def test_undo_after_each_trial_leaves_the_scratch_equal_to_the_source():
-    env = ExploreEnv(world="pp1-cuboids", noise=1, task="budget", max_steps=3)
+    env = ExploreEnv(world="pp1-cuboids", noise=1, task="budget", budget_scans=3)
     _, info = env.reset(seed=2)
     *_, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
     sim = env.sim

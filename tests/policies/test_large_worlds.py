@@ -38,7 +38,7 @@ def large_world(tmp_path_factory) -> str:
 @pytest.mark.parametrize("name", sorted(POLICIES))
 def test_every_shipped_policy_runs_on_a_120_m_world(name, large_world):
     policy = load_policy(name)
-    env = ExploreEnv(task="budget", world=large_world, noise=0, max_steps=2,
+    env = ExploreEnv(task="budget", world=large_world, noise=0, budget_scans=2,
                      observation_layers=required_layers(policy))  # fmt: skip
     result = run_episode(env, policy, seed=1)
     goal = result.steps[-1]["goal"]
@@ -51,7 +51,7 @@ def test_every_shipped_policy_runs_on_a_120_m_world(name, large_world):
 def test_a_learned_agent_refuses_a_goal_grid_it_was_not_trained_on(name, large_world):
     pytest.importorskip("sb3_contrib")
     policy = load_policy(name)
-    env = ExploreEnv(task="budget", world=large_world, noise=0, max_steps=2,
+    env = ExploreEnv(task="budget", world=large_world, noise=0, budget_scans=2,
                      observation_layers=required_layers(policy))  # fmt: skip
     with pytest.raises(
         NbvGymError, match=r"chooses among 3600 goals; this world has 14400"

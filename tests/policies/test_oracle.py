@@ -19,7 +19,7 @@ WORLD, SEED, FIRST_GOAL_STEPS = "pp1-cuboids", 5, 1
 
 
 def new_env(policy) -> ExploreEnv:
-    return make_env(ExploreEnv(world=WORLD, noise=1, task="budget", max_steps=4).config, policy)
+    return make_env(ExploreEnv(world=WORLD, noise=1, task="budget", budget_scans=4).config, policy)
 
 
 def state_digest(env: ExploreEnv) -> str:

@@ -74,7 +74,7 @@ def test_it_is_an_oracle_ranked_apart_and_needs_the_environment():
 
 def test_the_harness_attaches_the_teacher():
     teacher = load_policy("oracle-time", n_best=2, n_random=1)
-    env = ExploreEnv(world="pp1-cuboids", noise=1, task="budget", max_steps=3,
+    env = ExploreEnv(world="pp1-cuboids", noise=1, task="budget", budget_scans=3,
                      observation_layers=teacher.observation_layers)  # fmt: skip
     result = run_episode(env, teacher, seed=6)
     assert len(result.steps) == 1 + 3 and len(teacher.last_evaluation["goals"]) == 3

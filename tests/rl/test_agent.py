@@ -18,6 +18,7 @@ from gymnasium import spaces
 from nbv_gym.core.errors import MissingExtraError
 from nbv_gym.core.protocol import EpisodeConfig
 from nbv_gym.env.explore import EnvConfig
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.episode import make_env, run_episode
 from nbv_gym.policies import PolicyError, load_policy, required_layers
 from nbv_gym.rl.agent import SB3Policy, check_spaces
@@ -33,7 +34,7 @@ def config(world):
         n_envs=2,
         train_worlds=(world,),
         eval_worlds=(world,),
-        max_steps=8,
+        task=TaskConfig(name="budget", budget_scans=8),
         learning=LearningConfig(n_steps=32, batch_size=32, n_epochs=2),
         checkpoint_every_steps=64,
         eval_every_steps=64,

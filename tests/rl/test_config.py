@@ -20,7 +20,7 @@ def test_default_config_trains_on_the_wide_pool_and_evaluates_on_its_held_out_wo
     assert TRAIN_WORLDS == ("random:wide",) and TrainConfig().world_pool_size >= 256
     assert EVAL_WORLDS == tuple(f"random:wide/heldout-{k}" for k in range(8))
     assert not set(EVAL_WORLDS) & set(benchmark_names())
-    assert TrainConfig().task == "budget"
+    assert TrainConfig().task.name == "budget"
 
 
 def test_the_shipped_agents_recipes_still_describe_how_they_were_trained():
@@ -28,7 +28,11 @@ def test_the_shipped_agents_recipes_still_describe_how_they_were_trained():
         config = load_train_config(config_file(name, "train"))
         assert config.train_worlds == ("random:mixed",) and config.world_pool_size == 32
     wide = load_train_config(config_file("ppo-time-wide", "train"))
-    assert (wide.task, wide.train_worlds, wide.eval_worlds) == ("time", TRAIN_WORLDS, EVAL_WORLDS)
+    assert (wide.task.name, wide.train_worlds, wide.eval_worlds) == (
+        "time",
+        TRAIN_WORLDS,
+        EVAL_WORLDS,
+    )
 
 
 def test_overrides_replace_file_values(tmp_path):

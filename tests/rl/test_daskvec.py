@@ -19,6 +19,7 @@ pytest.importorskip("distributed")
 from stable_baselines3.common.callbacks import BaseCallback  # noqa: E402
 
 from nbv_gym.core.errors import ClusterError, ConfigError  # noqa: E402
+from nbv_gym.env.task import TaskConfig  # noqa: E402
 from nbv_gym.rl import daskvec  # noqa: E402
 from nbv_gym.rl.config import LearningConfig, TrainConfig  # noqa: E402
 from nbv_gym.rl.train import train  # noqa: E402
@@ -33,7 +34,7 @@ def config(world) -> TrainConfig:
         n_envs=2,
         train_worlds=(world,),
         eval_worlds=(),
-        max_steps=4,
+        task=TaskConfig(name="budget", budget_scans=4),
         learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=2),
         checkpoint_every_steps=0,
         eval_every_steps=0,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.rl.envs import WorldCycleEnv
 
 BORDER_GOAL = 0  # never valid: within 1 m of the window border
@@ -31,13 +32,15 @@ def test_distribution_draws_and_snapping_reaches_the_learner():
 def test_the_time_task_trains_under_its_budget_and_effort_model():
     from nbv_gym.rl.config import TrainConfig
 
-    config = TrainConfig(task="time", time_budget_s=120.0, speed_mps=0.5, scan_time_s=5.0)
+    config = TrainConfig(
+        task=TaskConfig(name="time", time_budget_s=120.0, speed_mps=0.5, scan_time_s=5.0)
+    )
     kwargs = config.env_kwargs()
     assert {k: kwargs[k] for k in ("speed_mps", "scan_time_s", "time_budget_s")} == {
         "speed_mps": 0.5, "scan_time_s": 5.0, "time_budget_s": 120.0}  # fmt: skip
     assert "max_steps" not in kwargs  # the time task caps scans itself
     budget = TrainConfig().env_kwargs()
-    assert "time_budget_s" not in budget and budget["max_steps"] == 12  # no time budget
+    assert "time_budget_s" not in budget and budget["budget_scans"] == 12  # no time budget
     env = WorldCycleEnv(("pp1-cuboids",), **kwargs)
     episode = env.env.config.simulator.episode
     assert (episode.time_budget_s, episode.speed_mps, episode.scan_time_s) == (120.0, 0.5, 5.0)

@@ -17,6 +17,7 @@ from typer.testing import CliRunner  # noqa: E402
 from nbv_gym.cli.main import app  # noqa: E402
 from nbv_gym.core.protocol import BUDGET_ID  # noqa: E402
 from nbv_gym.env.explore import ExploreEnv  # noqa: E402
+from nbv_gym.env.task import TaskConfig  # noqa: E402
 from nbv_gym.episode import run_episode  # noqa: E402
 from nbv_gym.policies import PolicyError, load_policy  # noqa: E402
 from nbv_gym.policies.registry import model_path  # noqa: E402
@@ -33,7 +34,7 @@ def packaged(world, tmp_path_factory):
     run = tmp_path_factory.mktemp("runs") / "tiny"
     config = TrainConfig(
         total_timesteps=32, n_envs=1, train_worlds=(world,), eval_worlds=(world,),
-        max_steps=BUDGET, learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
+        task=TaskConfig(name="budget", budget_scans=BUDGET), learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
         checkpoint_every_steps=0, eval_every_steps=0,
     )  # fmt: skip
     train(config, run, progress_bar=False)
@@ -83,7 +84,7 @@ def test_rl_zoo3_downloads_the_folder_as_a_run_that_loads_and_plays(
     assert hyperparameters["policy"] == "nbv_gym.rl.extractor.MaskableGoalMapPolicy"
     assert (run / "results.json").is_file()  # the metrics archive, unpacked
     env_kwargs = yaml.safe_load((run / env_name / "env_kwargs.yml").read_text())
-    assert env_kwargs["max_steps"] == BUDGET and env_kwargs["invalid_action"] == "snap"
+    assert env_kwargs["budget_scans"] == BUDGET and env_kwargs["invalid_action"] == "snap"
     env = gymnasium.make(BUDGET_ID, **env_kwargs)
     result = run_episode(env.unwrapped, load_policy(f"sb3:{run / f'{env_name}.zip'}"), 3)
     assert len(result.steps) == BUDGET + 1
@@ -113,7 +114,7 @@ def test_each_return_is_the_scaled_gain_in_q_of_its_episode(packaged):
     assert [e["seed"] for e in episodes] == list(range(EPISODES))
     world = episodes[0]["world"]
     for episode in episodes:
-        env = ExploreEnv(task="budget", world=world, max_steps=BUDGET)
+        env = ExploreEnv(task="budget", world=world, budget_scans=BUDGET)
         first_q = env.reset(seed=episode["seed"])[1]["q"]
         assert episode["return"] == pytest.approx(100.0 * (episode["q"] - first_q), abs=1e-9)
     returns = [e["return"] for e in episodes]
@@ -122,7 +123,7 @@ def test_each_return_is_the_scaled_gain_in_q_of_its_episode(packaged):
 
 def test_the_folder_loads_back_as_a_policy_and_runs_an_episode(packaged, world):
     policy = load_policy(f"sb3:{packaged.out}")
-    result = run_episode(ExploreEnv(task="budget", world=world, max_steps=BUDGET), policy, 7)
+    result = run_episode(ExploreEnv(task="budget", world=world, budget_scans=BUDGET), policy, 7)
     assert len(result.steps) == BUDGET + 1 and result.final["q"] > 0  # the first scan, BUDGET steps
 
 
@@ -171,8 +172,8 @@ def test_the_hub_environment_is_the_one_of_training_lidar_and_effort_included():
     from nbv_gym.rl.hub import zoo_env_kwargs
     from nbv_gym.sensor.presets import lidar_preset
 
-    config = TrainConfig(task="time", lidar="vlp-16", time_budget_s=90.0, speed_mps=0.5,
-                         eval_worlds=("pp1-cuboids",))  # fmt: skip
+    task = TaskConfig(name="time", lidar="vlp-16", time_budget_s=90.0, speed_mps=0.5)
+    config = TrainConfig(task=task, eval_worlds=("pp1-cuboids",))
     kwargs = zoo_env_kwargs(config)
     env = gymnasium.make(TIME_ID, **kwargs).unwrapped
     episode = env.sim.config.episode

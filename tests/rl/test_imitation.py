@@ -15,6 +15,7 @@ th = pytest.importorskip("torch")
 pytest.importorskip("sb3_contrib")
 
 from nbv_gym.env.observation import BASE_LAYERS, observation_space  # noqa: E402
+from nbv_gym.env.task import TaskConfig  # noqa: E402
 from nbv_gym.rl import imitation as imitation_module  # noqa: E402
 from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig  # noqa: E402
 from nbv_gym.rl.imitation import (  # noqa: E402
@@ -57,8 +58,8 @@ def toy_shards(folder: Path, episodes: int, states: int, seed: int) -> list[Path
 
 def toy_config(epochs: int) -> TrainConfig:
     return TrainConfig(
-        train_worlds=("toy",), task="time", n_envs=1,
-        observation_layers=("gain_unknown", "nbv_candidates"),
+        train_worlds=("toy",), n_envs=1,
+        task=TaskConfig(name="time", observation_layers=("gain_unknown", "nbv_candidates")),
         learning=LearningConfig(n_steps=8, batch_size=8),
         imitation=ImitationConfig(epochs=epochs, batch_size=8, learning_rate=1e-2),
     )  # fmt: skip

@@ -22,6 +22,7 @@ pytest.importorskip("sb3_contrib")
 
 from nbv_gym.env.explore import ExploreEnv
 from nbv_gym.env.observation import BASE_LAYERS
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.policies.teacher import OracleTime
 from nbv_gym.rl.config import ImitationConfig, LearningConfig, TrainConfig
 from nbv_gym.rl.labelfile import (
@@ -41,8 +42,8 @@ BUDGET_S = 50.0
 def tiny_config(world: str, **imitation) -> TrainConfig:
     """A recipe on the tiny world: three episodes an iteration, a short time budget."""
     return TrainConfig(
-        train_worlds=(world,), eval_worlds=(world,), task="time", time_budget_s=BUDGET_S,
-        n_envs=1, observation_layers=LAYERS, learning=LearningConfig(n_steps=8, batch_size=8),
+        train_worlds=(world,), eval_worlds=(world,), n_envs=1,
+        task=TaskConfig(name="time", time_budget_s=BUDGET_S, observation_layers=LAYERS), learning=LearningConfig(n_steps=8, batch_size=8),
         imitation=ImitationConfig(**{"episodes_per_iteration": 3, "validation_share": 0.34,
                                      **imitation}),
     )  # fmt: skip

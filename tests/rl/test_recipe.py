@@ -107,7 +107,7 @@ def test_the_shipped_actor_reads_the_agent_observation_only(recipe):
 
 def test_the_shipped_recipe_is_a_time_task_recipe_with_the_references_gain_layers():
     config = load_train_config(config_file("imitation-time", "train"))
-    assert config.task == "time" and config.imitation is not None
+    assert config.task.name == "time" and config.imitation is not None
     assert config.imitation.teacher == "oracle-time" and config.init_model == ""
     assert {"gain_sigma", "gain_unknown", "nbv_candidates"} <= set(config.observation_layers)
     ppo_time = load_train_config(config_file("ppo-time", "train"))

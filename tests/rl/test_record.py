@@ -7,6 +7,7 @@ import pytest
 
 minari = pytest.importorskip("minari")
 
+from nbv_gym.env.task import TaskConfig  # noqa: E402
 from nbv_gym.rl.dataset import RecordError, record_dataset  # noqa: E402
 
 DATASET = "nbv-gym/pp1-cuboids/closest-frontier-v0"
@@ -15,7 +16,9 @@ DATASET = "nbv-gym/pp1-cuboids/closest-frontier-v0"
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     out = tmp_path_factory.mktemp("datasets")
-    record_dataset("closest-frontier", "pp1-cuboids", out, episodes=2, seed=5, max_steps=3)
+    record_dataset(
+        "closest-frontier", "pp1-cuboids", out, TaskConfig(max_steps=3), episodes=2, seed=5
+    )
     return out
 
 
@@ -44,7 +47,7 @@ def test_dataset_loads_with_minari_and_replays_to_the_same_rewards(recorded, mon
 
 def test_recording_into_an_existing_dataset_is_refused(recorded):
     with pytest.raises(RecordError, match="exists; choose another --out or id"):
-        record_dataset("closest-frontier", "pp1-cuboids", recorded, episodes=1, max_steps=1)
+        record_dataset("closest-frontier", "pp1-cuboids", recorded, TaskConfig(max_steps=1))
 
 
 def test_the_dataset_names_its_code_and_requirements(recorded, monkeypatch):
@@ -59,18 +62,15 @@ def test_the_dataset_names_its_code_and_requirements(recorded, monkeypatch):
 
 def test_a_budget_recording_runs_the_budget_without_termination(tmp_path):
     dataset = record_dataset(
-        "random-frontier", "pp1-cuboids", tmp_path, episodes=1, max_steps=4, task="budget"
+        "random-frontier", "pp1-cuboids", tmp_path, TaskConfig(name="budget", budget_scans=4)
     )
     assert dataset.total_steps == 4 and dataset.env_spec.id == "nbv_gym/ExploreBudget-v0"
 
 
 def test_a_time_recording_runs_until_its_time_budget_is_spent(tmp_path):
-    from nbv_gym.core.protocol import EffortModel
-
     dataset = record_dataset(
-        "closest-frontier", "pp1-cuboids", tmp_path, episodes=1, task="time",
-        max_steps=EffortModel().scan_cap(45.0), effort={"time_budget_s": 45.0},
-    )  # fmt: skip
+        "closest-frontier", "pp1-cuboids", tmp_path, TaskConfig(name="time", time_budget_s=45.0)
+    )
     assert dataset.env_spec.id == "nbv_gym/ExploreTime-v0"
     (episode,) = dataset.iterate_episodes()
     assert episode.truncations[-1] and 1 <= dataset.total_steps < 45 / 10  # ≥ 10 s a scan

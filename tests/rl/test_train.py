@@ -21,6 +21,7 @@ from typer.testing import CliRunner  # noqa: E402
 
 from nbv_gym.cli.main import app  # noqa: E402
 from nbv_gym.core.errors import ConfigError  # noqa: E402
+from nbv_gym.env.task import TaskConfig  # noqa: E402
 from nbv_gym.rl.config import LearningConfig, TrainConfig  # noqa: E402
 from nbv_gym.rl.curve import moving_mean  # noqa: E402
 from nbv_gym.rl.train import check_device, policy_setup, train  # noqa: E402
@@ -36,7 +37,7 @@ def config_file(world, tmp_path_factory):
     path = tmp_path_factory.mktemp("configs") / "tiny.toml"
     path.write_text(
         f"train_worlds = [{json.dumps(world)}]\neval_worlds = [{json.dumps(world)}]\n"
-        f"max_steps = {BUDGET}\neval_every_steps = 0\n"
+        f"budget_scans = {BUDGET}\neval_every_steps = 0\n"
         "checkpoint_every_steps = 0\n"
         "[learning]\nn_steps = 16\nbatch_size = 16\nn_epochs = 1\n"
     )
@@ -90,7 +91,7 @@ def test_time_limit_stops_training_and_still_saves(world, tmp_path, caplog):
         n_envs=1,
         train_worlds=(world,),
         eval_worlds=(),
-        max_steps=BUDGET,
+        task=TaskConfig(name="budget", budget_scans=BUDGET),
         learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
         checkpoint_every_steps=0,
         eval_every_steps=0,
@@ -270,8 +271,8 @@ def test_a_training_can_start_from_a_shipped_models_weights_under_another_task(w
     from nbv_gym.rl.agent import load_model
 
     config = TrainConfig(
-        total_timesteps=1, n_envs=1, train_worlds=(world,), eval_worlds=(), task="time",
-        time_budget_s=60.0, learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
+        total_timesteps=1, n_envs=1, train_worlds=(world,), eval_worlds=(),
+        task=TaskConfig(name="time", time_budget_s=60.0), learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
         checkpoint_every_steps=0, eval_every_steps=0, init_model="ppo-budget",
     )  # fmt: skip
     model = train(config, tmp_path, progress_bar=False, time_limit_s=0.0)  # before any update
@@ -319,7 +320,7 @@ def test_sigterm_in_training_saves_a_checkpoint_like_ctrl_c(
     [
         ('task = "time"\ntime_budget_s = 60.0\nlidar = "vlp-16"\n', "task"),
         ('lidar = "vlp-16"\n', "lidar"),
-        (f"max_steps = {BUDGET + 1}\n", "max_steps"),
+        (f"budget_scans = {BUDGET + 1}\n", "budget_scans"),
     ],
     ids=["task", "lidar", "budget"],
 )

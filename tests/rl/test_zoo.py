@@ -28,7 +28,7 @@ def zoo_train(world: str, logs: Path, timesteps: int) -> subprocess.CompletedPro
         sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", BUDGET_ID,
         "--gym-packages", "nbv_gym", "-conf", str(ZOO_CONFIG), "-f", str(logs),
         "-n", str(timesteps), "--eval-freq", "-1", "--seed", "0", "--num-threads", "1",
-        "--env-kwargs", f"world:'{world}'", "invalid_action:'snap'", f"max_steps:{BUDGET}",
+        "--env-kwargs", f"world:'{world}'", "invalid_action:'snap'", f"budget_scans:{BUDGET}",
         "-params", "n_envs:1", "n_steps:64", "batch_size:64", "n_epochs:1",
     ]  # fmt: skip
     return subprocess.run(command, capture_output=True, text=True)
@@ -41,7 +41,7 @@ def test_rl_zoo3_trains_ppo_and_the_model_finishes_an_episode_as_a_policy(world,
 
     policy = load_policy(f"sb3:{model}")
     assert not policy.masked
-    env = make_env(ExploreEnv(task="budget", world=world, max_steps=BUDGET).config, policy)
+    env = make_env(ExploreEnv(task="budget", world=world, budget_scans=BUDGET).config, policy)
     result = run_episode(env, policy, seed=1)
     assert result.end_reason  # the episode ended: the budget, or no goal left
     assert len(result.steps) == BUDGET + 1 or "no valid goal" in result.end_reason

@@ -70,8 +70,8 @@ def test_every_preset_passes_the_gymnasium_checker(name, env_id):
     from gymnasium.utils.env_checker import check_env
 
     config = {"simulator": {"world": WORLD, "noise": 0, "lidar": {"range_noise": None}}}
-    env = gymnasium.make(env_id, config=config, lidar=name, max_steps=3,
-                         disable_env_checker=True)  # fmt: skip
+    length = {"budget_scans" if "Budget" in env_id else "max_steps": 3}
+    env = gymnasium.make(env_id, config=config, lidar=name, **length, disable_env_checker=True)
     assert env.unwrapped.config.simulator.lidar.n_azimuth == lidar_config(name).n_azimuth
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -82,7 +82,7 @@ def test_every_preset_passes_the_gymnasium_checker(name, env_id):
 @pytest.mark.parametrize("name", sorted(LIDAR_PRESETS))
 def test_every_preset_passes_the_stable_baselines3_checker(name):
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    env = gymnasium.make("nbv_gym/ExploreBudget-v0", world=WORLD, lidar=name, max_steps=3)
+    env = gymnasium.make("nbv_gym/ExploreBudget-v0", world=WORLD, lidar=name, budget_scans=3)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sb3_checker.check_env(env.unwrapped, warn=True)
@@ -97,10 +97,10 @@ def test_an_unknown_preset_names_the_near_miss():
 
 
 def test_a_training_config_refuses_an_unknown_preset_naming_the_key():
-    from nbv_gym.rl.config import TrainConfig
+    from nbv_gym.rl.config import train_config
 
     with pytest.raises(ConfigError, match=r"^lidar: Unknown lidar 'os-64'\. Did you mean"):
-        TrainConfig(lidar="os-64")
+        train_config({"lidar": "os-64"})
 
 
 def test_sweep_lidar_sets_the_pattern_keeps_the_default_and_refuses_a_clash():
@@ -111,8 +111,11 @@ def test_sweep_lidar_sets_the_pattern_keeps_the_default_and_refuses_a_clash():
     dense = with_lidar(config, "os1-64")
     assert dense.env_config(WORLD, 0).simulator.lidar == lidar_config("os1-64")
     assert dense.results_fingerprint() != config.results_fingerprint()
+    assert with_lidar(dense, "vlp-16").task.lidar == "vlp-16"  # a name, replaced as one
+    own = SweepConfig(worlds=(WORLD,), policies=("closest-frontier",),
+                      env={"simulator": {"lidar": {"elevation_max_rad": 0.3}}})  # fmt: skip
     with pytest.raises(ConfigError, match=r"sets env\.simulator\.lidar\.elevation_max_rad itself"):
-        with_lidar(dense, "vlp-16")
+        with_lidar(own, "vlp-16")
 
 
 def test_a_suite_with_another_lidar_is_another_suite():

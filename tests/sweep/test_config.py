@@ -9,13 +9,14 @@ from pathlib import Path
 import pytest
 
 from nbv_gym.configs import config_file
-from nbv_gym.core.config import from_dict, parse_toml, to_dict
+from nbv_gym.core.config import parse_toml
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.policies import PAPER_POLICIES
 from nbv_gym.sweep.config import (
     SweepConfig,
     dumps_toml,
     load_sweep_config,
+    sweep_config,
 )
 
 REQUIRED = ('worlds = ["pp1-cuboids"]\n', 'policies = ["closest-frontier"]\n')
@@ -61,8 +62,8 @@ def test_resolved_config_round_trips_through_toml():
         policies=("closest-frontier", "my_module:MyPolicy"),
         env={"simulator": {"episode": {"discovered_target": 0.5}}, "nbv": {"alpha": 1.5}},
     )
-    text = dumps_toml(to_dict(config))
-    assert from_dict(SweepConfig, parse_toml(text, "test")) == config
+    text = dumps_toml(config.file_dict())
+    assert sweep_config(parse_toml(text, "test")) == config
     assert config.env_config("pp1-cuboids", 2).simulator.episode.discovered_target == 0.5
 
 
@@ -88,7 +89,7 @@ def test_file_names_are_safe_for_any_policy_name():
         ),
         ('worlds = ["pp9-trees"]', r"worlds\[0\]: Unknown world 'pp9-trees'"),
         ('worlds = ["pp1-trees", "pp1-trees"]', r"worlds: lists pp1-trees more than once"),
-        ("max_steps = -1", r"max_steps: must be from 1 to 10000, got -1"),
+        ("max_steps = -1", r"max_steps: must be from 1 to 10,000, got -1"),
         ("[env.simulator.lidar]\nbogus = 1", r"env\.simulator\.lidar\.bogus"),
         ("[env.simulator]\nnoise = 2", r"env\.simulator\.noise: set by the sweep"),
         (
@@ -147,5 +148,5 @@ def test_cli_rejects_a_malformed_config_with_exit_code_2(tmp_path):
 def test_rl_eval_config_is_the_budget_comparison_of_issue_14():
     config = load_sweep_config(config_file("rl-eval"))
     assert len(config.runs()) == 12 * 1 * 8 * 3
-    assert config.task == "budget" and config.noise == (1,)
+    assert config.task.name == "budget" and config.noise == (1,)
     assert set(config.policies) == {*PAPER_POLICIES, "ppo-budget"}

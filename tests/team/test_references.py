@@ -40,4 +40,4 @@ def test_a_team_of_one_reproduces_a_stored_single_robot_run(split, world, noise,
     q = [row["q"] for row in rows]
     assert grid_curve(times, q, TIME_GRID_S) == stored["q_time"]
     # the team's mean Q is the benchmark's area under Q(t)
-    assert figures["q_time_auc"] == area_under(times, q, part.time_budget_s)
+    assert figures["q_time_auc"] == area_under(times, q, part.task.time_budget_s)

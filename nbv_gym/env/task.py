@@ -35,6 +35,8 @@ from nbv_gym.sensor.presets import DEFAULT_LIDAR, LIDAR_PRESETS
 
 #: The most scans one episode may ask for (a budget or a truncation): a bound on the work.
 MAX_SCANS = 10_000
+#: Each task's own budget or truncation key (the file key the task's episodes end by).
+OWN_KEYS = {"explore": "max_steps", "budget": "budget_scans", "time": "time_budget_s"}
 
 
 @dataclass(frozen=True)
@@ -134,16 +136,20 @@ class TaskConfig:
                             episode=self.episode(base.simulator.episode))  # fmt: skip
         return replace(base, simulator=simulator, observation_layers=self.observation_layers)
 
+    def shapes(self, key: str) -> bool:
+        """Whether the file key ``key`` shapes this task's episodes: another task's budget or
+        truncation does not (a config may hold any value of it)."""
+        return key not in OWN_KEYS.values() or key == OWN_KEYS[self.name]
+
     def env_kwargs(self) -> dict[str, Any]:
         """The :class:`~nbv_gym.env.explore.ExploreEnv` keywords of the task (plain values, as
         a recorded dataset stores them): the task, noise, lidar, layers, the effort model and
         the task's own budget or truncation."""
-        own = {"explore": "max_steps", "budget": "budget_scans", "time": "time_budget_s"}
-        key = own[self.name]
+        key = OWN_KEYS[self.name]
         return {"task": self.name, "noise": self.noise, "lidar": self.lidar,
                 "observation_layers": tuple(self.observation_layers),
                 "speed_mps": self.speed_mps, "scan_time_s": self.scan_time_s,
                 key: getattr(self, key)}  # fmt: skip
 
 
-__all__ = ["MAX_SCANS", "TaskConfig"]
+__all__ = ["MAX_SCANS", "OWN_KEYS", "TaskConfig"]

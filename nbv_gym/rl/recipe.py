@@ -141,7 +141,9 @@ def _steps(checkpoint: Path) -> int:
 
 def _claim(out: Path, config: TrainConfig) -> None:
     """Write ``out/recipe.toml``, or check that the recipe there is ``config`` (but for
-    :data:`WHERE_KEYS`); :class:`ConfigError` naming the keys that differ."""
+    :data:`WHERE_KEYS` and another task's budget or truncation, which its episodes never read:
+    a folder written before ``budget_scans`` split from ``max_steps`` goes on);
+    :class:`ConfigError` naming the keys that differ."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / RECIPE
     if not path.exists():
@@ -155,7 +157,8 @@ def _claim(out: Path, config: TrainConfig) -> None:
         return
     earlier, now = _flat(load_train_config(path).file_dict()), _flat(config.file_dict())
     differ = sorted(k for k in earlier.keys() | now.keys()
-                    if earlier.get(k) != now.get(k) and k not in WHERE_KEYS)  # fmt: skip
+                    if earlier.get(k) != now.get(k) and k not in WHERE_KEYS
+                    and config.task.shapes(k))  # fmt: skip
     if differ:
         raise ConfigError(
             f"{out} holds a recipe run with another config ({', '.join(differ[:4])} differ); "

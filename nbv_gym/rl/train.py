@@ -391,19 +391,13 @@ def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
         return
     then, now = load_train_config(path).file_dict(), config.file_dict()
     for key in RESUME_KEYS:
-        if _relevant(key, config.task.name) and then[key] != now[key]:
+        if config.task.shapes(key) and then[key] != now[key]:
             raise ConfigError(
                 f"--resume {resume}: the training that saved it ({path}) has {key} = "
                 f"{then[key]!r}, this config {now[key]!r}; a training resumes under its own "
                 f"settings. Resume with its config, or start a new training from its weights "
                 f'(init_model = "{resume}").'
             )
-
-
-def _relevant(key: str, task: str) -> bool:
-    """Whether ``key`` shapes the episodes of ``task`` (a budget or truncation is one task's)."""
-    own = {"max_steps": "explore", "budget_scans": "budget", "time_budget_s": "time"}
-    return own.get(key, task) == task
 
 
 def _start_from(model, config: TrainConfig) -> None:

@@ -6,6 +6,7 @@ reads the agent's observation only."""
 from __future__ import annotations
 
 import json
+import shutil
 import tomllib
 import zipfile
 
@@ -85,6 +86,18 @@ def test_a_recipe_folder_refuses_another_config_and_resume_or_force(recipe, tmp_
         assert result.code == 2 and "rerun the same command" in result.err
 
 
+def test_a_recipe_folder_from_before_budget_scans_goes_on(recipe, tmp_path):
+    """A recipe.toml written when a config held ``max_steps = 12`` whatever its task (the time
+    task never reads it) is the same recipe: the finished run goes on, as a no-op."""
+    path, out, _ = recipe
+    old = tmp_path / "run"
+    shutil.copytree(out, old, symlinks=True)
+    stored = old / "recipe.toml"
+    stored.write_text("max_steps = 12\n" + stored.read_text().replace("max_steps = ", "# "))
+    result = invoke("train", "--config", path, "--out", old, "--no-progress")
+    assert result.code == 0, result.err
+
+
 def test_the_shipped_actor_reads_the_agent_observation_only(recipe):
     """The final model's inputs are observation layers the robot computes from its own map
     (and its state): none is a privileged key, and it runs as a normal (non-oracle) policy,
@@ -109,6 +122,6 @@ def test_the_shipped_recipe_is_a_time_task_recipe_with_the_references_gain_layer
     config = load_train_config(config_file("imitation-time", "train"))
     assert config.task.name == "time" and config.imitation is not None
     assert config.imitation.teacher == "oracle-time" and config.init_model == ""
-    assert {"gain_sigma", "gain_unknown", "nbv_candidates"} <= set(config.observation_layers)
+    assert {"gain_sigma", "gain_unknown", "nbv_candidates"} <= set(config.task.observation_layers)
     ppo_time = load_train_config(config_file("ppo-time", "train"))
-    assert ppo_time.imitation is None and ppo_time.observation_layers == ()
+    assert ppo_time.imitation is None and ppo_time.task.observation_layers == ()

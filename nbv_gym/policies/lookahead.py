@@ -78,7 +78,7 @@ class _Worker:
         sim, out = self.sim, np.empty(len(goals))
         for index, goal in enumerate(goals):
             self.rng.bit_generator.state = self._state
-            scan = sim.lidar.scan(sim.goal_pose(int(goal)), self.rng)
-            totals = self.overlay.try_scan(scan.origin, scan.points_map)
+            origin, points = sim.lidar.map_points(sim.goal_pose(int(goal)), self.rng)
+            totals = self.overlay.try_scan(origin, points)
             out[index] = self.quality.q(totals, self.overlay.levels) - sim.summary.q
         return out

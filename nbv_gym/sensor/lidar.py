@@ -7,6 +7,7 @@ points in the map frame under the *noisy* pose that mapping will use.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -226,13 +227,35 @@ class Lidar:
 
     def scan(self, robot: Pose, rng: np.random.Generator) -> Scan:
         """Scan from the robot's ground pose ``robot``; all randomness is drawn from ``rng``."""
+        ray_index, ranges, true_pose, noisy_pose = self._measure(robot, rng)
+        return self._returns(ray_index, ranges, true_pose, noisy_pose)
+
+    def map_points(self, robot: Pose, rng: np.random.Generator) -> tuple[FloatArray, FloatArray]:
+        """The (3,) float64 ``origin`` and (n, 3) float64 ``points_map`` of the :meth:`scan`
+        from ``robot`` with ``rng`` — the same bits and draws — without its sensor-frame arrays
+        (a look-ahead's trial scans need only these)."""
+        ray_index, ranges, _, noisy_pose = self._measure(robot, rng)
+        keep, x, y = self._kept(ray_index, ranges)
+        c, s = math.cos(noisy_pose.yaw), math.sin(noisy_pose.yaw)  # as Pose.to_map turns them
+        x, y, origin = x[keep], y[keep], noisy_pose.position
+        points = np.empty((len(keep), 3))
+        points[:, 0], points[:, 1] = c * x - s * y, s * x + c * y
+        points[:, 2] = ranges[keep] * self._rows[2][ray_index[keep]]
+        points += origin
+        return origin, points
+
+    def _measure(
+        self, robot: Pose, rng: np.random.Generator
+    ) -> tuple[IntArray, FloatArray, Pose, Pose]:
+        """The scan's hits before the sensor drops any: (k,) int64 ray indices, (k,) float64
+        noisy ranges, the true and the noisy sensor pose (draws the scan's numbers from
+        ``rng``)."""
         self._check_pose(robot)
         true_pose = self.sensor_pose(robot)
         ray_index, ranges = self._cast(true_pose)
         if self.range_noise is not None:
             ranges = self.range_noise.apply(ranges, rng)
-        noisy_pose = self.localisation.perturb(true_pose, rng)
-        return self._returns(ray_index, ranges, true_pose, noisy_pose)
+        return ray_index, ranges, true_pose, self.localisation.perturb(true_pose, rng)
 
     def _cast(self, true_pose: Pose) -> tuple[IntArray, FloatArray]:
         """The rays from the sensor at ``true_pose`` that hit: (k,) int64 their indices and (k,)
@@ -253,15 +276,24 @@ class Lidar:
         self, ray_index: IntArray, ranges: FloatArray, true_pose: Pose, noisy_pose: Pose
     ) -> Scan:
         """The scan of the hits ``ray_index`` at ``ranges``, less those the sensor drops."""
-        dx, dy, dz = self._rows
-        x, y = ranges * dx[ray_index], ranges * dy[ray_index]
-        keep = np.flatnonzero(
-            (ranges > self.min_range_m) & (np.hypot(x, y) >= self.min_horizontal_m)
-        )
+        keep, x, y = self._kept(ray_index, ranges)
         ray_index, ranges = ray_index[keep], ranges[keep]
         points = np.empty((len(keep), 3))
-        points[:, 0], points[:, 1], points[:, 2] = x[keep], y[keep], ranges * dz[ray_index]
+        points[:, 0], points[:, 1], points[:, 2] = (
+            x[keep],
+            y[keep],
+            ranges * self._rows[2][ray_index],
+        )
         return Scan(points, ranges, ray_index, true_pose, noisy_pose, noisy_pose.to_map(points))
+
+    def _kept(
+        self, ray_index: IntArray, ranges: FloatArray
+    ) -> tuple[IntArray, FloatArray, FloatArray]:
+        """(j,) int64 the hits the sensor keeps (positions in ``ray_index``), and (k,) float64
+        every hit's sensor-frame x and y, metres."""
+        x, y = ranges * self._rows[0][ray_index], ranges * self._rows[1][ray_index]
+        keep = (ranges > self.min_range_m) & (np.hypot(x, y) >= self.min_horizontal_m)
+        return np.flatnonzero(keep), x, y
 
     def _check_pose(self, robot: Pose) -> None:
         values = (robot.x, robot.y, robot.z, robot.yaw)

@@ -146,6 +146,19 @@ def test_same_seed_same_scan():
     assert not np.array_equal(a.ranges, c.ranges)
 
 
+def test_map_points_are_the_scans_origin_and_map_points_bit_for_bit_with_the_same_draws():
+    box = shapes.place(shapes.cross(), np.array([4.0, 1.0]), 0.7, 1.1, 0.9)
+    lidar = make_lidar(box, RangeNoise(), LocalisationNoise.level(2))
+    for pose in (Pose(0, 0, 0, 0), Pose(0.5, -1.0, 0.1, 2.3)):
+        a_rng, b_rng = np.random.default_rng(9), np.random.default_rng(9)
+        scan = lidar.scan(pose, a_rng)
+        origin, points = lidar.map_points(pose, b_rng)
+        assert len(scan) > 100 and points.dtype == scan.points_map.dtype
+        assert origin.tobytes() == scan.origin.tobytes()
+        assert points.tobytes() == scan.points_map.tobytes()
+        assert a_rng.random() == b_rng.random()  # the same numbers drawn
+
+
 @pytest.mark.parametrize("pose", [Pose(40, 0, 0, 0), Pose(0, -33, 0, 0), Pose(np.nan, 0, 0, 0)])
 def test_a_pose_outside_the_world_is_refused(pose):
     lidar = make_lidar(wall_mesh(5.0), bounds=((-32.0, -32.0), (32.0, 32.0)))

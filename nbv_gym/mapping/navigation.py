@@ -364,51 +364,60 @@ def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) ->
     return _dijkstra(passable, start[0], start[1], float(step_m))
 
 
+#: The bucket width of :func:`_dijkstra` in steps: under one, so that a cell's bucket is always
+#: after that of the cell it is reached from, whatever the rounding.
+_BUCKET_STEPS = 0.999
+
+
 @njit(cache=True)
 def _dijkstra(passable, si, sj, step):  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
-    """Dijkstra's algorithm on the 8-connected grid with a binary min-heap in two arrays (keys
-    and flat cells; a cell is pushed again when its distance drops, stale entries are skipped),
-    its sift loops written out (numba adds reference counting to every call of a helper that
-    takes arrays). Any correct order of settling gives the same distances, bit for bit: each
-    is the least ``dist[u] + w`` over the neighbours settled before it."""
+    """Dijkstra's algorithm on the 8-connected grid with a bucket queue: distances fall into
+    buckets ``_BUCKET_STEPS · step`` wide, narrower than the shortest edge, so every cell of the
+    lowest open bucket is already final (its best neighbour lies in an earlier bucket) and is
+    settled in any order, with no heap. An edge leads at most 2 buckets on (√2 / 0.999 < 2), so 4
+    buckets in a ring suffice; a cell is put in a bucket when its distance first falls into it,
+    and entries whose cell has moved to an earlier bucket are skipped. Any correct order of
+    settling gives the same distances, bit for bit: each is the least ``dist[u] + w`` over the
+    neighbours settled before it. The grid is padded by one impassable cell on each side, so
+    that the neighbours need no bounds checks."""
     nx, ny = passable.shape
-    dist = np.full((nx, ny), np.inf)
-    dist[si, sj] = 0.0
-    keys = np.empty(8 * nx * ny + 1)  # each cell is pushed at most once per neighbour
-    cells = np.empty(8 * nx * ny + 1, np.int64)
-    keys[0], cells[0], size = 0.0, si * ny + sj, 1
+    py = ny + 2
+    n = (nx + 2) * py
+    open_ = np.zeros(n, np.bool_)
+    for i in range(nx):
+        for j in range(ny):
+            open_[(i + 1) * py + j + 1] = passable[i, j]
+    dist = np.full(n, np.inf)
     diagonal = step * math.sqrt(2.0)
-    while size:
-        d, flat = keys[0], cells[0]
-        size -= 1
-        key, cell, slot = keys[size], cells[size], 0  # the last entry sifts down from the root
-        while 2 * slot + 1 < size:
-            child = 2 * slot + 1
-            if child + 1 < size and keys[child + 1] < keys[child]:
-                child += 1
-            if keys[child] >= key:
-                break
-            keys[slot], cells[slot] = keys[child], cells[child]
-            slot = child
-        keys[slot], cells[slot] = key, cell
-        i, j = flat // ny, flat % ny
-        if d > dist[i, j]:
-            continue
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                a, b = i + di, j + dj
-                if (di == 0 and dj == 0) or not (0 <= a < nx and 0 <= b < ny) or not passable[a, b]:
-                    continue
-                nd = d + (diagonal if di != 0 and dj != 0 else step)
-                if nd < dist[a, b]:
-                    dist[a, b] = nd
-                    slot = size  # push: sift up from the new last slot
-                    size += 1
-                    while slot > 0 and keys[(slot - 1) >> 1] > nd:
-                        keys[slot], cells[slot] = keys[(slot - 1) >> 1], cells[(slot - 1) >> 1]
-                        slot = (slot - 1) >> 1
-                    keys[slot], cells[slot] = nd, a * ny + b
-    return dist
+    offsets = np.array([-py - 1, -py, -py + 1, -1, 1, py - 1, py, py + 1])
+    weights = np.array([diagonal, step, diagonal, step, step, diagonal, step, diagonal])
+    per_bucket = 1.0 / (step * _BUCKET_STEPS)
+    ring = np.empty((4, n), np.int32)  # a cell is at most once in each bucket
+    sizes = np.zeros(4, np.int64)
+    start = (si + 1) * py + sj + 1
+    dist[start], ring[0, 0], sizes[0] = 0.0, start, 1
+    pending, bucket = 1, 0
+    while pending:
+        slot = bucket & 3
+        for entry in range(sizes[slot]):
+            u = ring[slot, entry]
+            d = dist[u]
+            if int(d * per_bucket) != bucket:  # settled already, from an earlier bucket
+                continue
+            for t in range(8):
+                v = u + offsets[t]
+                nd = d + weights[t]
+                if open_[v] and nd < dist[v]:
+                    old, dist[v] = dist[v], nd
+                    later = int(nd * per_bucket)
+                    if old == np.inf or int(old * per_bucket) != later:
+                        ring[later & 3, sizes[later & 3]] = v
+                        sizes[later & 3] += 1
+                        pending += 1
+        pending -= sizes[slot]
+        sizes[slot] = 0
+        bucket += 1
+    return dist.reshape(nx + 2, py)[1:-1, 1:-1].copy()
 
 
 def _nav_grid(goal_grid: GridSpec, cell_m: float, z_m: float) -> GridSpec:

@@ -370,7 +370,7 @@ _BUCKET_STEPS = 0.999
 
 
 @njit(cache=True)
-def _dijkstra(passable, si, sj, step):  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
+def _dijkstra(passable, si, sj, step):
     """Dijkstra's algorithm on the 8-connected grid with a bucket queue: distances fall into
     buckets ``_BUCKET_STEPS · step`` wide, narrower than the shortest edge, so every cell of the
     lowest open bucket is already final (its best neighbour lies in an earlier bucket) and is

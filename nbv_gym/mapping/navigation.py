@@ -202,13 +202,8 @@ class NavigationLayer:
         """:attr:`goal_fractions` of the goal cells holding the nav cells ``box`` (i0, i1, j0,
         j1)."""
         f = self._cells_per_goal
-        gi0, gj0 = box[0] // f, box[2] // f
-        gi1, gj1 = -(-box[1] // f), -(-box[3] // f)
-        part = (slice(gi0 * f, gi1 * f), slice(gj0 * f, gj1 * f))
-        known, occupied = self.known[part], self.occupied[part]
-        for layer, fine in enumerate((known, known & ~occupied, occupied)):  # free: in the part
-            block = fine.reshape(gi1 - gi0, f, gj1 - gj0, f)
-            self.goal_fractions[layer, gi0:gi1, gj0:gj1] = block.mean(axis=(1, 3))
+        goals = (box[0] // f, -(-box[1] // f), box[2] // f, -(-box[3] // f))
+        _goal_fractions(self.known, self.occupied, f, *goals, self.goal_fractions)
 
     def plan(self, robot_xy: FloatArray) -> None:
         """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free
@@ -418,6 +413,24 @@ def _dijkstra(passable, si, sj, step):
         sizes[slot] = 0
         bucket += 1
     return dist.reshape(nx + 2, py)[1:-1, 1:-1].copy()
+
+
+@njit(cache=True)
+def _goal_fractions(known, occupied, f, gi0, gi1, gj0, gj1, out):
+    """``out[:, gi, gj]`` for the goal cells ``gi0 <= gi < gi1``, ``gj0 <= gj < gj1``: the
+    fractions of their ``f`` × ``f`` nav cells that are known, free and occupied (counts over
+    f², as the mean of a bool block: the same bits)."""
+    for gi in range(gi0, gi1):
+        for gj in range(gj0, gj1):
+            n_known = n_free = n_occupied = 0
+            for a in range(gi * f, gi * f + f):
+                for b in range(gj * f, gj * f + f):
+                    n_known += known[a, b]
+                    n_occupied += occupied[a, b]
+                    n_free += known[a, b] and not occupied[a, b]
+            out[0, gi, gj] = n_known / (f * f)
+            out[1, gi, gj] = n_free / (f * f)
+            out[2, gi, gj] = n_occupied / (f * f)
 
 
 def _nav_grid(goal_grid: GridSpec, cell_m: float, z_m: float) -> GridSpec:

@@ -202,13 +202,8 @@ class NavigationLayer:
         """:attr:`goal_fractions` of the goal cells holding the nav cells ``box`` (i0, i1, j0,
         j1)."""
         f = self._cells_per_goal
-        gi0, gj0 = box[0] // f, box[2] // f
-        gi1, gj1 = -(-box[1] // f), -(-box[3] // f)
-        part = (slice(gi0 * f, gi1 * f), slice(gj0 * f, gj1 * f))
-        known, occupied = self.known[part], self.occupied[part]
-        for layer, fine in enumerate((known, known & ~occupied, occupied)):  # free: in the part
-            block = fine.reshape(gi1 - gi0, f, gj1 - gj0, f)
-            self.goal_fractions[layer, gi0:gi1, gj0:gj1] = block.mean(axis=(1, 3))
+        goals = (box[0] // f, -(-box[1] // f), box[2] // f, -(-box[3] // f))
+        _goal_fractions(self.known, self.occupied, f, *goals, self.goal_fractions)
 
     def plan(self, robot_xy: FloatArray) -> None:
         """Recompute path lengths from the robot at ``robot_xy`` (2,) metres over eroded free
@@ -364,51 +359,78 @@ def path_lengths(passable: np.ndarray, start: tuple[int, int], step_m: float) ->
     return _dijkstra(passable, start[0], start[1], float(step_m))
 
 
+#: The bucket width of :func:`_dijkstra` in steps: under one, so that a cell's bucket is always
+#: after that of the cell it is reached from, whatever the rounding.
+_BUCKET_STEPS = 0.999
+
+
 @njit(cache=True)
-def _dijkstra(passable, si, sj, step):  # noqa: C901 — a numba kernel: helpers taking arrays cost reference counting per call
-    """Dijkstra's algorithm on the 8-connected grid with a binary min-heap in two arrays (keys
-    and flat cells; a cell is pushed again when its distance drops, stale entries are skipped),
-    its sift loops written out (numba adds reference counting to every call of a helper that
-    takes arrays). Any correct order of settling gives the same distances, bit for bit: each
-    is the least ``dist[u] + w`` over the neighbours settled before it."""
+def _dijkstra(passable, si, sj, step):
+    """Dijkstra's algorithm on the 8-connected grid with a bucket queue: distances fall into
+    buckets ``_BUCKET_STEPS · step`` wide, narrower than the shortest edge, so every cell of the
+    lowest open bucket is already final (its best neighbour lies in an earlier bucket) and is
+    settled in any order, with no heap. An edge leads at most 2 buckets on (√2 / 0.999 < 2), so 4
+    buckets in a ring suffice; a cell is put in a bucket when its distance first falls into it,
+    and entries whose cell has moved to an earlier bucket are skipped. Any correct order of
+    settling gives the same distances, bit for bit: each is the least ``dist[u] + w`` over the
+    neighbours settled before it. The grid is padded by one impassable cell on each side, so
+    that the neighbours need no bounds checks."""
     nx, ny = passable.shape
-    dist = np.full((nx, ny), np.inf)
-    dist[si, sj] = 0.0
-    keys = np.empty(8 * nx * ny + 1)  # each cell is pushed at most once per neighbour
-    cells = np.empty(8 * nx * ny + 1, np.int64)
-    keys[0], cells[0], size = 0.0, si * ny + sj, 1
+    py = ny + 2
+    n = (nx + 2) * py
+    open_ = np.zeros(n, np.bool_)
+    for i in range(nx):
+        for j in range(ny):
+            open_[(i + 1) * py + j + 1] = passable[i, j]
+    dist = np.full(n, np.inf)
     diagonal = step * math.sqrt(2.0)
-    while size:
-        d, flat = keys[0], cells[0]
-        size -= 1
-        key, cell, slot = keys[size], cells[size], 0  # the last entry sifts down from the root
-        while 2 * slot + 1 < size:
-            child = 2 * slot + 1
-            if child + 1 < size and keys[child + 1] < keys[child]:
-                child += 1
-            if keys[child] >= key:
-                break
-            keys[slot], cells[slot] = keys[child], cells[child]
-            slot = child
-        keys[slot], cells[slot] = key, cell
-        i, j = flat // ny, flat % ny
-        if d > dist[i, j]:
-            continue
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                a, b = i + di, j + dj
-                if (di == 0 and dj == 0) or not (0 <= a < nx and 0 <= b < ny) or not passable[a, b]:
-                    continue
-                nd = d + (diagonal if di != 0 and dj != 0 else step)
-                if nd < dist[a, b]:
-                    dist[a, b] = nd
-                    slot = size  # push: sift up from the new last slot
-                    size += 1
-                    while slot > 0 and keys[(slot - 1) >> 1] > nd:
-                        keys[slot], cells[slot] = keys[(slot - 1) >> 1], cells[(slot - 1) >> 1]
-                        slot = (slot - 1) >> 1
-                    keys[slot], cells[slot] = nd, a * ny + b
-    return dist
+    offsets = np.array([-py - 1, -py, -py + 1, -1, 1, py - 1, py, py + 1])
+    weights = np.array([diagonal, step, diagonal, step, step, diagonal, step, diagonal])
+    per_bucket = 1.0 / (step * _BUCKET_STEPS)
+    ring = np.empty((4, n), np.int32)  # a cell is at most once in each bucket
+    sizes = np.zeros(4, np.int64)
+    start = (si + 1) * py + sj + 1
+    dist[start], ring[0, 0], sizes[0] = 0.0, start, 1
+    pending, bucket = 1, 0
+    while pending:
+        slot = bucket & 3
+        for entry in range(sizes[slot]):
+            u = ring[slot, entry]
+            d = dist[u]
+            if int(d * per_bucket) != bucket:  # settled already, from an earlier bucket
+                continue
+            for t in range(8):
+                v = u + offsets[t]
+                nd = d + weights[t]
+                if open_[v] and nd < dist[v]:
+                    old, dist[v] = dist[v], nd
+                    later = int(nd * per_bucket)
+                    if old == np.inf or int(old * per_bucket) != later:
+                        ring[later & 3, sizes[later & 3]] = v
+                        sizes[later & 3] += 1
+                        pending += 1
+        pending -= sizes[slot]
+        sizes[slot] = 0
+        bucket += 1
+    return dist.reshape(nx + 2, py)[1:-1, 1:-1].copy()
+
+
+@njit(cache=True)
+def _goal_fractions(known, occupied, f, gi0, gi1, gj0, gj1, out):
+    """``out[:, gi, gj]`` for the goal cells ``gi0 <= gi < gi1``, ``gj0 <= gj < gj1``: the
+    fractions of their ``f`` × ``f`` nav cells that are known, free and occupied (counts over
+    f², as the mean of a bool block: the same bits)."""
+    for gi in range(gi0, gi1):
+        for gj in range(gj0, gj1):
+            n_known = n_free = n_occupied = 0
+            for a in range(gi * f, gi * f + f):
+                for b in range(gj * f, gj * f + f):
+                    n_known += known[a, b]
+                    n_occupied += occupied[a, b]
+                    n_free += known[a, b] and not occupied[a, b]
+            out[0, gi, gj] = n_known / (f * f)
+            out[1, gi, gj] = n_free / (f * f)
+            out[2, gi, gj] = n_occupied / (f * f)
 
 
 def _nav_grid(goal_grid: GridSpec, cell_m: float, z_m: float) -> GridSpec:

@@ -224,12 +224,12 @@ def summarise(u_occ, volume, observed, cov, l1, quality, config: CuboidConfig) -
     cov = cov.reshape(len(cov), -1)
     seen = np.flatnonzero(volume & observed)
     holding = u_occ[seen]
-    values = (quality[seen], cov.take(seen[holding], axis=1), l1[seen[~holding]])
+    values = _Observed(quality[seen], cov.take(seen[holding], axis=1), l1[seen[~holding]])
     n_occ = int(np.count_nonzero(u_occ & volume))
     n_empty = int(np.count_nonzero(volume)) - n_occ
     seen_occ = int(holding.sum())
-    every = _means(*values, n_occ - seen_occ, n_empty - (len(seen) - seen_occ), config)
-    observed_means = _means(*values, 0, 0, config)
+    every = _means(values, n_occ - seen_occ, n_empty - (len(seen) - seen_occ), config)
+    observed_means = _means(values, 0, 0, config)
     return QualitySummary(
         *every,
         n_occ=n_occ,
@@ -242,20 +242,28 @@ def summarise(u_occ, volume, observed, cov, l1, quality, config: CuboidConfig) -
     )
 
 
+class _Observed:
+    """The observed cuboids of a summary — (k,) ``terms`` of Q, (s, a) ``covs`` of those holding
+    ground truth, (b,) ``l1s`` of the others — with their sums, taken once for both means."""
+
+    def __init__(self, terms: FloatArray, covs: FloatArray, l1s: FloatArray):
+        self.terms, self.covs, self.l1s = terms, covs, l1s
+        self.terms_sum, self.cov_sums, self.l1_sum = terms.sum(), covs.sum(axis=1), l1s.sum()
+
+
 def _means(
-    terms, covs, l1s, unseen_occ: int, unseen_empty: int, config
+    values: _Observed, unseen_occ: int, unseen_empty: int, config
 ) -> tuple[float, float, tuple[float, ...], float]:
-    """(Q, Q_paper, cov per setting, L1) over observed cuboids — (k,) ``terms`` of Q, (s, a)
-    ``covs`` of those holding ground truth, (b,) ``l1s`` of the others — and ``unseen_occ`` +
-    ``unseen_empty`` unobserved ones; NaN where a set is empty."""
+    """(Q, Q_paper, cov per setting, L1) over the observed cuboids ``values`` and
+    ``unseen_occ`` + ``unseen_empty`` unobserved ones; NaN where a set is empty."""
     nan = float("nan")
+    covs, l1s = values.covs, values.l1s
     n_occ, n_empty = covs.shape[1] + unseen_occ, len(l1s) + unseen_empty
-    cov_sums = covs.sum(axis=1)  # row by row
-    l1_sum = _with_unseen(l1s.sum(), unseen_empty, config.unobserved_l1)
+    l1_sum = _with_unseen(values.l1_sum, unseen_empty, config.unobserved_l1)
     return (
-        mean_quality(terms, unseen_occ, unseen_empty, config),
+        _mean_of(values.terms_sum, len(values.terms), unseen_occ, unseen_empty, config),
         _paper(covs[config.q_setting], l1s, unseen_occ, unseen_empty, config),
-        tuple((cov_sums / n_occ).tolist()) if n_occ else (nan,) * len(covs),
+        tuple((values.cov_sums / n_occ).tolist()) if n_occ else (nan,) * len(covs),
         float(l1_sum / n_empty) if n_empty else nan,
     )
 
@@ -263,9 +271,14 @@ def _means(
 def mean_quality(terms: FloatArray, unseen_occ: int, unseen_empty: int, config) -> float:
     """Q over the observed cuboids' (k,) float64 ``terms`` and ``unseen_occ`` + ``unseen_empty``
     unobserved ones (NaN when there are none)."""
-    n = len(terms) + unseen_occ + unseen_empty
+    return _mean_of(terms.sum(), len(terms), unseen_occ, unseen_empty, config)
+
+
+def _mean_of(total, n_terms: int, unseen_occ: int, unseen_empty: int, config) -> float:
+    """:func:`mean_quality` of ``n_terms`` terms summing to ``total``."""
+    n = n_terms + unseen_occ + unseen_empty
     # an unobserved cuboid's coverage is 0, so is the term of one holding ground truth
-    q = _with_unseen(terms.sum(), unseen_empty, empty_quality(config.unobserved_l1, config))
+    q = _with_unseen(total, unseen_empty, empty_quality(config.unobserved_l1, config))
     return float(q / n) if n else float("nan")
 
 

@@ -199,10 +199,10 @@ class QualityTracker:
     def _store(self, flat: IntArray, observed: BoolArray, sums: FloatArray) -> None:
         """Set the cuboids ``flat``: observed or not, L1 (their ``sums`` if observed), coverage
         (the search's result where observed and holding ground truth, else 0)."""
-        self._observed[flat] = observed
-        self._l1[flat] = np.where(observed, sums, self.config.unobserved_l1)
-        self._cov[:, flat] = np.where(observed & self._occupied[flat], self._found[:, flat], 0.0)
-        self._terms[flat] = self._term(self._cov[:, flat], self._l1[flat], self._occupied[flat])
+        c = self.config
+        _store_cuboids(flat, np.asarray(observed, bool), sums, self._occupied, self._found,
+                       c.q_setting, c.unobserved_l1, c.unobserved_l1 - c.best_l1,
+                       self._observed, self._l1, self._cov, self._terms)  # fmt: skip
 
     def scratch(self) -> QualityTracker:
         """A tracker sharing this one's ground truth, with its own copy of the per-cuboid state
@@ -428,6 +428,25 @@ def _trial_coverages(levels, flat, n, shape, gt_start, gt_voxels, offsets, withi
         _coverage(levels[t], gt_voxels[gt_start[f] : gt_start[f + 1]], corner, offsets, within,
                   cov)  # fmt: skip
         out[t] = cov[0]
+
+
+@njit(cache=True)
+def _store_cuboids(flat, observed, sums, occupied, found, setting, unobserved_l1, span,
+                   seen, l1, cov, terms):  # fmt: skip
+    """:meth:`QualityTracker._store` cuboid by cuboid, into ``seen``, ``l1``, ``cov`` and
+    ``terms``: the element-wise arithmetic of ``_term`` and
+    :func:`~nbv_gym.metrics.cuboids.empty_quality` (``span``: unobserved − best L1), so the same
+    bits, without the temporary arrays of a few hundred cuboids."""
+    for t in range(len(flat)):
+        cuboid = flat[t]
+        seen[cuboid] = observed[t]
+        l1[cuboid] = sums[t] if observed[t] else unobserved_l1
+        for s in range(cov.shape[0]):
+            cov[s, cuboid] = found[s, cuboid] if observed[t] and occupied[cuboid] else 0.0
+        if occupied[cuboid]:
+            terms[cuboid] = cov[setting, cuboid]
+        else:
+            terms[cuboid] = min(max((unobserved_l1 - l1[cuboid]) / span, 0.0), 1.0)
 
 
 @njit(cache=True)

@@ -264,7 +264,7 @@ class NavigationLayer:
     @property
     def discovered_fraction(self) -> float:
         """Known nav cells / all nav cells of the window."""
-        return np.count_nonzero(self.known) / self.known.size  # = known.mean(), bit for bit
+        return float(np.count_nonzero(self.known) / self.known.size)  # = known.mean(), bit for bit
 
     @property
     def robot_goal(self) -> int:

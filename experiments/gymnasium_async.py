@@ -67,7 +67,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-steps", type=int, help="the budget (default: the id's)")
     args = parser.parse_args(argv)
-    limit = {} if args.max_steps is None else {"max_steps": args.max_steps,
+    key = "budget_scans" if "Budget" in args.env_id else "max_steps"  # the budget, or truncation
+    limit = {} if args.max_steps is None else {key: args.max_steps,
                                                 "max_episode_steps": args.max_steps}  # fmt: skip
     episodes = run(args.env_id, args.num_envs, args.steps, args.seed, world=args.world, **limit)
     for k, episode in enumerate(episodes):

@@ -49,6 +49,12 @@ class Result:
     err: str
 
 
+def few_steps(env_id: str, steps: int) -> dict[str, int]:
+    """The keyword that ends an episode of the registered ``env_id`` after ``steps`` scans: the
+    budget task's budget, else the truncation."""
+    return {"budget_scans": steps} if "Budget" in env_id else {"max_steps": steps}
+
+
 def invoke(*args: object) -> Result:
     """``nbv-gym ARGS`` in this process, through the CLI's error boundary as the console script
     runs it (exit codes, one-line messages); stdout and stderr captured."""

@@ -12,6 +12,7 @@ from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.protocol import TASK_IDS
 from nbv_gym.env.actions import nearest_valid_goal, resolve_goal
 from nbv_gym.simulator import InvalidActionError
+from tests.helpers import few_steps
 
 WORLD = "pp1-cuboids"
 BORDER_GOAL = 0  # the corner cell: within 1 m of the window border, never valid
@@ -39,7 +40,7 @@ def test_resolve_goal_snaps_only_invalid_in_range_goals():
 
 @pytest.mark.parametrize("env_id", list(TASK_IDS.values()))
 def test_snap_runs_the_nearest_valid_goal_and_reports_it(env_id):
-    env = gymnasium.make(env_id, world=WORLD, max_steps=4, invalid_action="snap")
+    env = gymnasium.make(env_id, world=WORLD, invalid_action="snap", **few_steps(env_id, 4))
     _, info = env.reset(seed=0)
     assert info["goal"] == -1 and info["snapped"] is False
     rng = np.random.default_rng(0)

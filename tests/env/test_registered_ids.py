@@ -19,6 +19,7 @@ from nbv_gym.core.protocol import (
     EXPLORE_MAX_STEPS,
     TASK_IDS,
 )
+from tests.helpers import few_steps
 
 WORLD = "pp1-cuboids"
 #: Every id of the package, read from Gymnasium's registry rather than from our own constants.
@@ -85,7 +86,7 @@ def test_gymnasium_env_checker_passes_without_warnings(env_id, config):
 
     kwargs = {"world": WORLD} if config is None else {"config": config}
     env = gymnasium.make(
-        env_id, render_mode="rgb_array", max_steps=3, disable_env_checker=True, **kwargs
+        env_id, render_mode="rgb_array", disable_env_checker=True, **few_steps(env_id, 3), **kwargs
     )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -96,7 +97,7 @@ def test_gymnasium_env_checker_passes_without_warnings(env_id, config):
 @pytest.mark.parametrize("env_id", ALL_IDS)
 def test_stable_baselines3_env_checker_passes_without_warnings(env_id):
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    env = gymnasium.make(env_id, world=WORLD, max_steps=3)
+    env = gymnasium.make(env_id, world=WORLD, **few_steps(env_id, 3))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         sb3_checker.check_env(env.unwrapped, warn=True)

@@ -11,6 +11,7 @@ import nbv_gym  # noqa: F401  (registers the environments)
 from nbv_gym.core.errors import NbvGymError
 from nbv_gym.env.layers import OPTIONAL_LAYERS
 from nbv_gym.env.views import AGENT_KEYS, PRIVILEGED_KEYS, PrivilegedInfoError, agent_view
+from tests.helpers import few_steps
 
 WORLD = "pp1-cuboids"
 # Every way the env's info can differ: the ids, with and without the optional layers,
@@ -29,7 +30,7 @@ SETTINGS = {
 
 def info_keys(env_id: str, kwargs: dict) -> set[str]:
     """The keys of every info of a two-step episode (reset, steps, the final one)."""
-    env = gymnasium.make(env_id, world=WORLD, noise=1, max_steps=2, **kwargs)
+    env = gymnasium.make(env_id, world=WORLD, noise=1, **few_steps(env_id, 2), **kwargs)
     try:
         _, info = env.reset(seed=0)
         keys, done = set(info), False

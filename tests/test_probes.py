@@ -317,7 +317,7 @@ def test_world_sizes_are_bounded(cli, here, edit, message):
     ("extra", "message"),
     [
         ("repeats = 1000000000", "more than 100,000; split it into several sweeps"),
-        ("max_steps = 100000000", "max_steps: must be from 1 to 10000"),
+        ("max_steps = 100000000", "max_steps: must be from 1 to 10,000"),
     ],
     ids=["repeats", "max_steps"],
 )

@@ -159,7 +159,8 @@ def test_effort_options_past_their_range_are_one_line(here, args, message):
 @pytest.mark.parametrize(
     ("kind", "text", "message"),
     [
-        ("sweep", SWEEP_TIME.format(episode="speed_mps = inf\nscan_time_s = 0.0"),
+        ("sweep", SWEEP_TIME.replace("[env.simulator.episode]\n", "").format(
+            episode="speed_mps = inf\nscan_time_s = 0.0"),
          "speed_mps: must be from 0.01 to 100 m/s, got inf"),
         ("train", TRAIN.format(extra="time_budget_s = inf"),
          "time_budget_s: must be from 1 to 86,400 s, got inf"),

@@ -18,7 +18,7 @@ N × T runs are whole) and performance profiles per column.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 from nbv_gym.benchmark.cardtypes import Scorecard
 from nbv_gym.benchmark.ranking import Entry, baseline, improvement, is_team, ranked
@@ -79,8 +79,8 @@ def _renamed(card: Scorecard, splits: dict[str, str]) -> Scorecard:
              if p["split"] in splits]  # fmt: skip
     runs = [{**r, "split": splits[r["split"]]} for r in card["runs"] if r["split"] in splits]
     aggregates = {splits[s]: a for s, a in card["aggregates"].items() if s in splits}
-    return {**card, "suite": {**card["suite"], "parts": parts}, "runs": runs,  # type: ignore[typeddict-item]
-            "aggregates": aggregates}  # fmt: skip
+    suite = {**card["suite"], "parts": parts}
+    return cast(Scorecard, {**card, "suite": suite, "runs": runs, "aggregates": aggregates})
 
 
 def write_team_board(entries: list[Entry], out: str | Path, verify: int) -> tuple[Path, Path, str]:

@@ -107,8 +107,9 @@ class TaskConfig:
         return from_dict(cls, data, path)
 
     def flat(self) -> dict[str, Any]:
-        """The fields as a file's flat keys (:meth:`from_flat` reads them back)."""
-        data = {f.name: getattr(self, f.name) for f in fields(self)}
+        """The fields as a file's flat keys (:meth:`from_flat` reads them back), but another
+        task's budget or truncation (a budget task's file holds no ``max_steps``)."""
+        data = {f.name: getattr(self, f.name) for f in fields(self) if self.shapes(f.name)}
         data["task"] = data.pop("name")
         data["observation_layers"] = list(self.observation_layers)
         return data

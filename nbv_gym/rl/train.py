@@ -391,10 +391,10 @@ def check_resume(config: TrainConfig, resume: str | Path | None) -> None:
         return
     then, now = load_train_config(path).file_dict(), config.file_dict()
     for key in RESUME_KEYS:
-        if config.task.shapes(key) and then[key] != now[key]:
+        if config.task.shapes(key) and then.get(key) != now.get(key):
             raise ConfigError(
                 f"--resume {resume}: the training that saved it ({path}) has {key} = "
-                f"{then[key]!r}, this config {now[key]!r}; a training resumes under its own "
+                f"{then.get(key)!r}, this config {now.get(key)!r}; a training resumes under its own "
                 f"settings. Resume with its config, or start a new training from its weights "
                 f'(init_model = "{resume}").'
             )

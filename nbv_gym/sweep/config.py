@@ -174,7 +174,7 @@ class SweepConfig:
         """The config as its file holds it (:func:`sweep_config` reads it back): the task's
         keys flat beside the others."""
         data, task = to_dict(self), self.task.flat()
-        return {**data, **{key: task[key] for key in TASK_FILE_KEYS}}
+        return {**data, **{key: task[key] for key in TASK_FILE_KEYS if key in task}}
 
 
 @dataclass(frozen=True)

@@ -126,7 +126,7 @@ def test_content_hash_moves_when_an_environment_default_changes(monkeypatch):
 
     def changed(*args, **kwargs):
         config = original(*args, **kwargs)
-        return replace(config, observation_layers=(*config.observation_layers, "gain_nobs"))
+        return replace(config, nbv=replace(config.nbv, gain_floor=config.nbv.gain_floor * 2))
 
     monkeypatch.setattr(explore, "EnvConfig", changed)
     assert QUICK.content_hash() != before

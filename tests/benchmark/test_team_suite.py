@@ -21,11 +21,15 @@ from nbv_gym.benchmark.suites import QUICK, STANDARD, TEAM, Part, Suite
 from nbv_gym.benchmark.teamboard import TeamBoardError
 from nbv_gym.core.errors import ConfigError
 from nbv_gym.core.protocol import TIME_BUDGET_S, EffortModel
+from nbv_gym.env.task import TaskConfig
 
 from .conftest import TINY_WORLD
 
 #: The tiny suite's team budget, s (a team of 2 takes 2–3 scans each).
 BUDGET_S = 40.0
+
+
+TIME = TaskConfig(name="time")
 
 
 @pytest.fixture(scope="module")
@@ -37,20 +41,18 @@ def tiny_team() -> Suite:
         (
             Part(
                 "team2-test",
-                "time",
+                TaskConfig(name="time", time_budget_s=BUDGET_S),
                 (TINY_WORLD,),
                 noise=(0,),
                 repeats=2,
-                time_budget_s=BUDGET_S,
                 robots=2,
             ),
             Part(
                 "solo2-test",
-                "time",
+                TaskConfig(name="time", time_budget_s=2 * BUDGET_S),
                 (TINY_WORLD,),
                 noise=(0,),
                 repeats=2,
-                time_budget_s=2 * BUDGET_S,
                 robots=1,
             ),
         ),
@@ -80,9 +82,11 @@ def test_the_team_suite_runs_2_and_3_robots_on_the_test_and_shift_worlds_and_one
         assert parts[f"team{n}-shift"].world_names == shift.world_names
         assert parts[f"team{n}-test"].robots == n
         solo = parts[f"solo{n}-test"]
-        assert (solo.robots, solo.time_budget_s) == (1, n * TIME_BUDGET_S)
+        assert (solo.robots, solo.task.time_budget_s) == (1, n * TIME_BUDGET_S)
         assert solo.world_names == test.world_names
-    assert all(p.noise == (0, 1, 2) and p.repeats == 3 and p.task == "time" for p in TEAM.parts)
+    assert all(
+        p.noise == (0, 1, 2) and p.repeats == 3 and p.task.name == "time" for p in TEAM.parts
+    )
     assert TEAM.seed == STANDARD.seed
     # the single-robot parts' descriptions (and so their hashes) do not name robots
     assert all("robots" not in p.description() for s in (STANDARD, QUICK) for p in s.parts)
@@ -97,14 +101,14 @@ def test_the_team_grid_reaches_three_budgets_and_starts_as_the_single_robots():
 @pytest.mark.parametrize(
     ("make", "message"),
     [
-        (lambda: Part("t", "time", ("pp1-cuboids",), robots=0), "at least 1 robot, got 0"),
-        (lambda: Part("t", "budget", ("pp1-cuboids",), robots=2), "time task"),
+        (lambda: Part("t", TIME, ("pp1-cuboids",), robots=0), "at least 1 robot, got 0"),
+        (lambda: Part("t", TaskConfig(name="budget"), ("pp1-cuboids",), robots=2), "time task"),
         (
             lambda: Suite(
                 "mixed",
                 (
-                    Part("a", "time", ("pp1-cuboids",)),
-                    Part("b", "time", ("pp1-cuboids",), robots=2),
+                    Part("a", TIME, ("pp1-cuboids",)),
+                    Part("b", TIME, ("pp1-cuboids",), robots=2),
                 ),
                 0,
             ),

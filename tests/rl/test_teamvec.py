@@ -13,6 +13,7 @@ pytest.importorskip("torch")
 pytest.importorskip("sb3_contrib")
 
 from nbv_gym.core.errors import ConfigError
+from nbv_gym.env.task import TaskConfig
 from nbv_gym.rl.config import LearningConfig, TrainConfig
 from nbv_gym.rl.teamagent import SharedTeamAgent
 from nbv_gym.rl.teamvec import TEAMMATE_GOALS, TeamVecEnv, make_team_envs
@@ -135,12 +136,14 @@ def test_a_tiny_team_training_runs_and_its_agent_acts_on_its_own_view(world, tmp
 
 @pytest.mark.parametrize(
     ("change", "key"),
-    [({"task": "budget"}, "task"), ({"algorithm": "PPO"}, "algorithm"),
+    [({"task": TaskConfig(name="budget")}, "task"), ({"algorithm": "PPO"}, "algorithm"),
      ({"train_worlds": ("random:wide",)}, "train_worlds"),
      ({"eval_every_steps": 100}, "eval_every_steps")],
 )  # fmt: skip
 def test_what_team_training_does_not_run_is_refused_naming_the_key(change, key):
-    base = TrainConfig(task="time", eval_every_steps=0, train_worlds=("random:wide/0",))
+    base = TrainConfig(
+        task=TaskConfig(name="time"), eval_every_steps=0, train_worlds=("random:wide/0",)
+    )
     assert replace(base, robots=2).robots == 2
     assert replace(base, robots=3, n_envs=1).learning.batch_size == 256  # 128 · 1 · 3 samples
     with pytest.raises(ConfigError, match=f"^{key}: robots = 2 trains on the team task"):

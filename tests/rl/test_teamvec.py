@@ -114,7 +114,8 @@ def test_every_robot_of_a_team_gets_the_teams_reward(vec):
 def test_a_tiny_team_training_runs_and_its_agent_acts_on_its_own_view(world, tmp_path):
     config = TrainConfig(
         robots=2, n_envs=1, total_timesteps=64, train_worlds=(world,), eval_worlds=(world,),
-        task="time", time_budget_s=BUDGET_S, eval_every_steps=0, checkpoint_every_steps=0,
+        task=TaskConfig(name="time", time_budget_s=BUDGET_S), eval_every_steps=0,
+        checkpoint_every_steps=0,
         learning=LearningConfig(n_steps=16, batch_size=16, n_epochs=1),
     )  # fmt: skip
     train(config, tmp_path, progress_bar=False)

@@ -148,7 +148,7 @@ def test_the_workers_do_not_load_torch(lean_envs):
 MIXED = {
     "worlds": ("random:mixed",),
     "task": "budget",
-    "max_steps": 2,
+    "budget_scans": 2,
     "world_pool_size": 32,
     "invalid_action": "raise",
 }
